@@ -1,0 +1,17 @@
+//! boxforge: exact box-spline derivations and branch-free WGSL generation.
+//!
+//! The pipeline reads like a compiler: [`spec`] (input) → [`spline`]
+//! (direction-matrix facts) → [`arrangement`] (knot planes, cells) →
+//! [`pieces`] (exact polynomials) → [`symmetry`] (reference pieces) →
+//! [`stencil`], [`bb`] and [`prefilter`] → [`eval`] (evaluator).
+
+pub mod error;
+pub mod exact;
+pub mod lattice;
+pub mod linalg;
+pub mod spec;
+pub mod spline;
+pub mod symmetry;
+
+pub use error::{Error, Result};
+pub use spec::Filter;

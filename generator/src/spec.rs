@@ -1,0 +1,244 @@
+//! Filter spec files (TOML): parsing and validation into a [`Filter`].
+//!
+//! ```toml
+//! name = "bcc7"
+//! description = "Kim 2013 quartic"
+//! lattice = "bcc"                      # or { generators = [[-1,1,1],[1,-1,1],[1,1,-1]] }
+//! directions = [[1,1,1],[-1,1,1],[1,-1,1],[1,1,-1],[2,0,0],[0,2,0],[0,0,2]]
+//! [caps]                               # optional
+//! max_degree = 12
+//! ```
+
+use crate::error::{Error, Result};
+use crate::lattice::Lattice;
+use crate::linalg::{rank_of_vectors, IVec};
+use serde::Deserialize;
+use std::path::Path;
+
+/// Limits that keep a derivation from running for hours.
+#[derive(Clone, Debug, Deserialize, PartialEq, Eq)]
+#[serde(deny_unknown_fields, default)]
+pub struct Caps {
+    pub max_directions: usize,
+    pub max_degree: usize,
+    pub max_stencil: usize,
+}
+
+impl Default for Caps {
+    fn default() -> Caps {
+        Caps { max_directions: 16, max_degree: 12, max_stencil: 512 }
+    }
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawSpec {
+    name: String,
+    #[serde(default)]
+    description: String,
+    lattice: RawLattice,
+    directions: Vec<Vec<toml::Value>>,
+    #[serde(default)]
+    caps: Caps,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(untagged)]
+enum RawLattice {
+    Name(String),
+    Generators { generators: Vec<Vec<toml::Value>> },
+}
+
+/// A validated filter: a lattice and integer directions in it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Filter {
+    pub name: String,
+    pub description: String,
+    pub lattice: Lattice,
+    pub directions: Vec<IVec>,
+    pub caps: Caps,
+}
+
+fn integer(v: &toml::Value, what: &str) -> Result<i64> {
+    match v {
+        toml::Value::Integer(i) => Ok(*i),
+        toml::Value::Float(f) if f.fract() == 0.0 && f.abs() < 1e15 => Ok(*f as i64),
+        other => Err(Error::NotInteger { what: what.to_string(), value: other.to_string() }),
+    }
+}
+
+fn integer_vector(v: &[toml::Value], what: &str) -> Result<IVec> {
+    v.iter().map(|x| integer(x, what)).collect()
+}
+
+impl Filter {
+    /// Parses and validates spec text; `origin` names it in errors.
+    pub fn from_toml(text: &str, origin: &str) -> Result<Filter> {
+        let raw: RawSpec = toml::from_str(text).map_err(|e| Error::Spec {
+            origin: origin.to_string(),
+            message: e.to_string().trim().replace('\n', " "),
+        })?;
+        let lattice = match raw.lattice {
+            RawLattice::Name(n) => Lattice::builtin(&n)?,
+            RawLattice::Generators { generators } => {
+                let gens = generators
+                    .iter()
+                    .enumerate()
+                    .map(|(i, g)| integer_vector(g, &format!("lattice generator {i}")))
+                    .collect::<Result<Vec<_>>>()?;
+                Lattice::from_generators("custom", gens)?
+            }
+        };
+        let directions = raw
+            .directions
+            .iter()
+            .enumerate()
+            .map(|(i, d)| integer_vector(d, &format!("direction {i}")))
+            .collect::<Result<Vec<_>>>()?;
+        Filter::new(&raw.name, &raw.description, lattice, directions, raw.caps)
+    }
+
+    /// Reads and validates a spec file.
+    pub fn from_file(path: &Path) -> Result<Filter> {
+        let text = std::fs::read_to_string(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
+        Filter::from_toml(&text, &path.display().to_string())
+    }
+
+    /// Validates a filter given in code.
+    pub fn new(name: &str, description: &str, lattice: Lattice, directions: Vec<IVec>, caps: Caps) -> Result<Filter> {
+        let dim = lattice.dim();
+        if !(2..=3).contains(&dim) {
+            return Err(Error::UnsupportedDimension { dim });
+        }
+        if name.trim().is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
+            return Err(Error::Spec {
+                origin: format!("'{name}'"),
+                message: "the name must be non-empty ASCII letters, digits and '_' (it prefixes WGSL identifiers)".into(),
+            });
+        }
+        if directions.len() > caps.max_directions {
+            return Err(Error::TooManyDirections { count: directions.len(), cap: caps.max_directions });
+        }
+        for (i, d) in directions.iter().enumerate() {
+            if d.len() != dim {
+                return Err(Error::MixedDimensions { what: format!("direction {i}"), found: d.len(), expected: dim });
+            }
+            if d.iter().any(|&x| x.abs() > 64) {
+                return Err(Error::Spec {
+                    origin: format!("'{name}'"),
+                    message: format!("direction {i} {d:?} has an entry beyond ±64; use shorter directions"),
+                });
+            }
+        }
+        for (i, d) in directions.iter().enumerate() {
+            if d.iter().all(|&x| x == 0) {
+                return Err(Error::ZeroDirection { index: i });
+            }
+        }
+        let rank = rank_of_vectors(&directions);
+        if rank < dim {
+            return Err(Error::RankDeficient { rank, dim });
+        }
+        for (i, d) in directions.iter().enumerate() {
+            if !lattice.contains(d) {
+                return Err(Error::NotInLattice { index: i, vector: d.clone(), lattice: lattice.name.clone() });
+            }
+        }
+        let degree = directions.len() - dim;
+        if degree > caps.max_degree {
+            return Err(Error::DegreeCap { degree, cap: caps.max_degree });
+        }
+        Ok(Filter { name: name.to_string(), description: description.to_string(), lattice, directions, caps })
+    }
+
+    pub fn dim(&self) -> usize {
+        self.lattice.dim()
+    }
+}
+
+/// The built-in catalog: every spec file in `generator/catalog/`, embedded at
+/// build time (see build.rs), in exactly the format users write.
+pub mod catalog {
+    use super::*;
+
+    include!(concat!(env!("OUT_DIR"), "/catalog_files.rs"));
+
+    /// Names of the catalog filters, in file-name order.
+    pub fn names() -> Vec<&'static str> {
+        CATALOG.iter().map(|(n, _)| *n).collect()
+    }
+
+    /// The spec text of a catalog filter.
+    pub fn source(name: &str) -> Option<&'static str> {
+        CATALOG.iter().find(|(n, _)| *n == name).map(|(_, s)| *s)
+    }
+
+    /// A catalog filter by name.
+    pub fn get(name: &str) -> Result<Filter> {
+        match source(name) {
+            Some(text) => Filter::from_toml(text, &format!("catalog/{name}.toml")),
+            None => Err(Error::UnknownFilter { name: name.to_string(), available: names().join(", ") }),
+        }
+    }
+
+    /// Every catalog filter.
+    pub fn all() -> Result<Vec<Filter>> {
+        names().into_iter().map(get).collect()
+    }
+}
+
+/// Resolves a command-line argument: a catalog name or a path to a spec file.
+pub fn resolve(name_or_path: &str) -> Result<Filter> {
+    if catalog::source(name_or_path).is_some() {
+        return catalog::get(name_or_path);
+    }
+    let p = Path::new(name_or_path);
+    if p.exists() || name_or_path.ends_with(".toml") {
+        return Filter::from_file(p);
+    }
+    Err(Error::UnknownFilter { name: name_or_path.to_string(), available: catalog::names().join(", ") })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(dirs: &str) -> Result<Filter> {
+        Filter::from_toml(&format!("name = \"t\"\nlattice = \"bcc\"\ndirections = {dirs}\n"), "test")
+    }
+
+    #[test]
+    fn catalog_parses() {
+        let all = catalog::all().unwrap();
+        assert!(all.len() >= 10);
+        for f in &all {
+            assert_eq!(catalog::get(&f.name).unwrap().name, f.name);
+        }
+    }
+
+    #[test]
+    fn each_bad_input_has_its_error() {
+        assert!(matches!(parse("[[1.5,1,1],[1,1,1],[-1,1,1]]"), Err(Error::NotInteger { .. })));
+        assert!(matches!(parse("[[0,0,0],[1,1,1],[-1,1,1],[1,-1,1]]"), Err(Error::ZeroDirection { index: 0 })));
+        assert!(matches!(parse("[[1,1],[1,1,1]]"), Err(Error::MixedDimensions { .. })));
+        assert!(matches!(parse("[[1,1,1],[2,2,2],[-1,1,1]]"), Err(Error::RankDeficient { rank: 2, dim: 3 })));
+        assert!(matches!(parse("[[1,0,0],[0,2,0],[0,0,2]]"), Err(Error::NotInLattice { index: 0, .. })));
+        assert!(matches!(parse("[[1,1,1]"), Err(Error::Spec { .. })));
+        let many = format!("[{}]", vec!["[2,0,0]"; 17].join(","));
+        assert!(matches!(parse(&many), Err(Error::TooManyDirections { count: 17, cap: 16 })));
+        let deg = "name=\"t\"\nlattice=\"cc\"\ndirections=[[1,0,0],[0,1,0],[0,0,1],[1,0,0],[0,1,0]]\n[caps]\nmax_degree=1\n";
+        assert!(matches!(Filter::from_toml(deg, "t"), Err(Error::DegreeCap { degree: 2, cap: 1 })));
+        let lat = "name=\"t\"\nlattice=\"hex\"\ndirections=[[1,0]]\n";
+        assert!(matches!(Filter::from_toml(lat, "t"), Err(Error::UnknownLattice { .. })));
+        let sing = "name=\"t\"\nlattice={generators=[[1,1],[2,2]]}\ndirections=[[1,0],[0,1]]\n";
+        assert!(matches!(Filter::from_toml(sing, "t"), Err(Error::SingularLattice { .. })));
+        assert!(matches!(resolve("no_such_filter"), Err(Error::UnknownFilter { .. })));
+    }
+
+    #[test]
+    fn explicit_generators_work() {
+        let t = "name=\"hexish\"\nlattice={generators=[[2,0],[1,1]]}\ndirections=[[2,0],[1,1],[-1,1]]\n";
+        let f = Filter::from_toml(t, "t").unwrap();
+        assert_eq!(f.lattice.det(), 2);
+    }
+}

@@ -1,0 +1,127 @@
+//! Scalar facts of a direction matrix: degree, approximation order,
+//! continuity, support volume, centre, and the knot-plane normals.
+
+use crate::exact::Q;
+use crate::linalg::{det_columns, primitive, primitive_normal, IVec, QVec};
+use crate::spec::Filter;
+
+/// What follows from the direction matrix alone.
+#[derive(Clone, Debug)]
+pub struct SplineFacts {
+    pub dim: usize,
+    pub directions: Vec<IVec>,
+    /// Distinct directions up to sign (sign-normalised, primitive-free: the
+    /// actual vectors), with multiplicities.
+    pub distinct: Vec<(IVec, usize)>,
+    pub degree: usize,
+    pub approximation_order: usize,
+    /// C^k continuity; -1 means discontinuous.
+    pub continuity: i64,
+    pub support_volume: i64,
+    /// c = (1/2) sum xi: phi(x) = |det G| M(x + c).
+    pub center: QVec,
+    /// Primitive knot-plane normals, sorted.
+    pub normals: Vec<IVec>,
+}
+
+/// Sign-normalises a vector (first non-zero entry positive).
+pub fn sign_normal(v: &[i64]) -> IVec {
+    if v.iter().find(|&&x| x != 0).copied().unwrap_or(0) < 0 {
+        v.iter().map(|x| -x).collect()
+    } else {
+        v.to_vec()
+    }
+}
+
+/// All k-subsets of 0..n, in lexicographic order.
+pub fn subsets(n: usize, k: usize) -> Vec<Vec<usize>> {
+    fn rec(start: usize, n: usize, k: usize, cur: &mut Vec<usize>, out: &mut Vec<Vec<usize>>) {
+        if cur.len() == k {
+            out.push(cur.clone());
+            return;
+        }
+        for i in start..n {
+            cur.push(i);
+            rec(i + 1, n, k, cur, out);
+            cur.pop();
+        }
+    }
+    let mut out = Vec::new();
+    rec(0, n, k, &mut Vec::new(), &mut out);
+    out
+}
+
+impl SplineFacts {
+    pub fn new(filter: &Filter) -> SplineFacts {
+        let dim = filter.dim();
+        let directions = filter.directions.clone();
+        let mut distinct: Vec<(IVec, usize)> = Vec::new();
+        for d in &directions {
+            let n = sign_normal(d);
+            match distinct.iter_mut().find(|(v, _)| *v == n) {
+                Some((_, c)) => *c += 1,
+                None => distinct.push((n, 1)),
+            }
+        }
+        distinct.sort();
+        // Knot normals: hyperplanes spanned by s-1 independent distinct directions.
+        let dvecs: Vec<&[i64]> = distinct.iter().map(|(v, _)| v.as_slice()).collect();
+        let mut normals: Vec<IVec> = Vec::new();
+        for sub in subsets(dvecs.len(), dim - 1) {
+            let vs: Vec<&[i64]> = sub.iter().map(|&i| dvecs[i]).collect();
+            if let Some(n) = primitive_normal(&vs, dim) {
+                if !normals.contains(&n) {
+                    normals.push(n);
+                }
+            }
+        }
+        normals.sort();
+        // rho = min over knot hyperplanes of the number of directions off it.
+        let approximation_order = normals
+            .iter()
+            .map(|n| directions.iter().filter(|d| crate::linalg::dot_i(n, d) != 0).count())
+            .min()
+            .unwrap_or(0);
+        let support_volume = subsets(directions.len(), dim)
+            .iter()
+            .map(|sub| {
+                let cols: Vec<&[i64]> = sub.iter().map(|&i| directions[i].as_slice()).collect();
+                det_columns(&cols).abs()
+            })
+            .sum();
+        let center = (0..dim)
+            .map(|i| Q::frac(directions.iter().map(|d| d[i]).sum::<i64>(), 2))
+            .collect();
+        SplineFacts {
+            dim,
+            degree: directions.len() - dim,
+            approximation_order,
+            continuity: approximation_order as i64 - 2,
+            support_volume,
+            center,
+            normals,
+            distinct,
+            directions,
+        }
+    }
+
+    /// Half-width of the centred support along normal n: sum |n.xi| / 2.
+    pub fn support_half_width(&self, n: &[i64]) -> Q {
+        Q::frac(self.directions.iter().map(|d| crate::linalg::dot_i(n, d).abs()).sum(), 2)
+    }
+
+    /// Is y strictly inside the centred support (the zonotope)?
+    pub fn in_open_support(&self, y: &[Q]) -> bool {
+        self.normals.iter().all(|n| crate::linalg::dot_iq(n, y).abs() < self.support_half_width(n))
+    }
+
+    /// Is y in the closed centred support?
+    pub fn in_closed_support(&self, y: &[Q]) -> bool {
+        self.normals.iter().all(|n| crate::linalg::dot_iq(n, y).abs() <= self.support_half_width(n))
+    }
+}
+
+/// Primitive direction of a vector (for grouping parallel directions).
+pub fn primitive_direction(v: &[i64]) -> IVec {
+    primitive(v).expect("non-zero direction")
+}
