@@ -9,7 +9,8 @@ fn main() {
         .filter(|p| p.extension().is_some_and(|e| e == "toml"))
         .collect();
     entries.sort();
-    let mut out = String::from("/// (name, spec text) of every catalog file.\npub const CATALOG: &[(&str, &str)] = &[\n");
+    let mut out =
+        String::from("/// (name, spec text) of every catalog file.\npub const CATALOG: &[(&str, &str)] = &[\n");
     for p in entries {
         println!("cargo:rerun-if-changed={}", p.display());
         let stem = p.file_stem().unwrap().to_string_lossy();

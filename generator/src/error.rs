@@ -28,13 +28,17 @@ pub enum Error {
     RankDeficient { rank: usize, dim: usize },
     #[error("direction {index} {vector:?} is not a point of the {lattice} lattice: use lattice vectors (e.g. scale it by 2) or pick a lattice that contains it")]
     NotInLattice { index: usize, vector: Vec<i64>, lattice: String },
-    #[error("{count} directions exceed the cap of {cap}: remove directions or raise `caps.max_directions` in the spec")]
+    #[error(
+        "{count} directions exceed the cap of {cap}: remove directions or raise `caps.max_directions` in the spec"
+    )]
     TooManyDirections { count: usize, cap: usize },
     #[error("degree {degree} exceeds the cap of {cap}: use fewer directions or raise `caps.max_degree` in the spec")]
     DegreeCap { degree: usize, cap: usize },
     #[error("the stencil would have up to {size} samples, over the cap of {cap}: use shorter directions or raise `caps.max_stencil` in the spec")]
     StencilCap { size: usize, cap: usize },
-    #[error("no quasi-interpolation prefilter found within {shells} shells: raise the shell limit or check the filter")]
+    #[error(
+        "no quasi-interpolation prefilter found within {shells} shells: raise the shell limit or check the filter"
+    )]
     Prefilter { shells: usize },
 }
 

@@ -95,11 +95,13 @@ impl Lattice {
             let h = self.hermite[i][i];
             out = out
                 .into_iter()
-                .flat_map(|p: IVec| (0..h).map(move |k| {
-                    let mut q = p.clone();
-                    q.push(k);
-                    q
-                }))
+                .flat_map(|p: IVec| {
+                    (0..h).map(move |k| {
+                        let mut q = p.clone();
+                        q.push(k);
+                        q
+                    })
+                })
                 .collect();
         }
         let mut reps: Vec<IVec> = out.iter().map(|p| self.reduce(p)).collect();
@@ -131,11 +133,13 @@ fn small_points(dim: usize) -> Vec<IVec> {
     for _ in 0..dim {
         out = out
             .into_iter()
-            .flat_map(|p: IVec| (-1..=1).map(move |k| {
-                let mut q = p.clone();
-                q.push(k);
-                q
-            }))
+            .flat_map(|p: IVec| {
+                (-1..=1).map(move |k| {
+                    let mut q = p.clone();
+                    q.push(k);
+                    q
+                })
+            })
             .collect();
     }
     out

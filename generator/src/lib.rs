@@ -5,10 +5,20 @@
 //! [`pieces`] (exact polynomials) → [`symmetry`] (reference pieces) →
 //! [`stencil`], [`bb`] and [`prefilter`] → [`eval`] (evaluator).
 
+pub mod arrangement;
+pub mod bb;
+pub mod derive;
 pub mod error;
+pub mod eval;
 pub mod exact;
 pub mod lattice;
 pub mod linalg;
+pub mod oracle;
+pub mod pieces;
+pub mod poly;
+pub mod polytope;
+pub mod prefilter;
+pub mod report;
 pub mod spec;
 pub mod spline;
 pub mod symmetry;

@@ -208,10 +208,8 @@ pub fn primitive_normal(vs: &[&[i64]], dim: usize) -> Option<IVec> {
     assert_eq!(vs.len() + 1, dim);
     let mut n = vec![0i64; dim];
     for (i, ni) in n.iter_mut().enumerate() {
-        let minor: Vec<QVec> = (0..dim)
-            .filter(|&r| r != i)
-            .map(|r| vs.iter().map(|v| Q::int(v[r])).collect())
-            .collect();
+        let minor: Vec<QVec> =
+            (0..dim).filter(|&r| r != i).map(|r| vs.iter().map(|v| Q::int(v[r])).collect()).collect();
         let d = if minor.is_empty() { Q::one() } else { det(&minor) };
         let d = d.to_i64().expect("integer minor");
         *ni = if i % 2 == 0 { d } else { -d };

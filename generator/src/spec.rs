@@ -113,7 +113,8 @@ impl Filter {
         if name.trim().is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
             return Err(Error::Spec {
                 origin: format!("'{name}'"),
-                message: "the name must be non-empty ASCII letters, digits and '_' (it prefixes WGSL identifiers)".into(),
+                message: "the name must be non-empty ASCII letters, digits and '_' (it prefixes WGSL identifiers)"
+                    .into(),
             });
         }
         if directions.len() > caps.max_directions {
@@ -226,7 +227,8 @@ mod tests {
         assert!(matches!(parse("[[1,1,1]"), Err(Error::Spec { .. })));
         let many = format!("[{}]", vec!["[2,0,0]"; 17].join(","));
         assert!(matches!(parse(&many), Err(Error::TooManyDirections { count: 17, cap: 16 })));
-        let deg = "name=\"t\"\nlattice=\"cc\"\ndirections=[[1,0,0],[0,1,0],[0,0,1],[1,0,0],[0,1,0]]\n[caps]\nmax_degree=1\n";
+        let deg =
+            "name=\"t\"\nlattice=\"cc\"\ndirections=[[1,0,0],[0,1,0],[0,0,1],[1,0,0],[0,1,0]]\n[caps]\nmax_degree=1\n";
         assert!(matches!(Filter::from_toml(deg, "t"), Err(Error::DegreeCap { degree: 2, cap: 1 })));
         let lat = "name=\"t\"\nlattice=\"hex\"\ndirections=[[1,0]]\n";
         assert!(matches!(Filter::from_toml(lat, "t"), Err(Error::UnknownLattice { .. })));

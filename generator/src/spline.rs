@@ -89,9 +89,7 @@ impl SplineFacts {
                 det_columns(&cols).abs()
             })
             .sum();
-        let center = (0..dim)
-            .map(|i| Q::frac(directions.iter().map(|d| d[i]).sum::<i64>(), 2))
-            .collect();
+        let center = (0..dim).map(|i| Q::frac(directions.iter().map(|d| d[i]).sum::<i64>(), 2)).collect();
         SplineFacts {
             dim,
             degree: directions.len() - dim,

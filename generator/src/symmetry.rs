@@ -50,12 +50,11 @@ pub fn point_group(filter: &Filter) -> Vec<SignedPerm> {
     signed_permutations(dim)
         .into_iter()
         .filter(|r| {
-            filter.lattice.generators.iter().all(|g| filter.lattice.contains(&mat_vec_i(r, g)))
-                && {
-                    let mut img: Vec<IVec> = filter.directions.iter().map(|d| sign_normal(&mat_vec_i(r, d))).collect();
-                    img.sort();
-                    img == key
-                }
+            filter.lattice.generators.iter().all(|g| filter.lattice.contains(&mat_vec_i(r, g))) && {
+                let mut img: Vec<IVec> = filter.directions.iter().map(|d| sign_normal(&mat_vec_i(r, d))).collect();
+                img.sort();
+                img == key
+            }
         })
         .collect()
 }

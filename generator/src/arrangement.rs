@@ -1,0 +1,206 @@
+//! Knot planes of the shift-invariant space and the evaluation cells: every
+//! cube class cut by the knot planes that cross it.
+
+use crate::exact::Q;
+use crate::lattice::Lattice;
+use crate::linalg::{dot_i, dot_iq, sub_i, to_q, IVec, QVec};
+use crate::polytope::Polytope;
+use crate::spline::SplineFacts;
+use serde::Serialize;
+use std::collections::HashMap;
+
+/// The planes n . x in offset + period Z.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
+pub struct KnotFamily {
+    pub normal: IVec,
+    /// alpha_n = -n.c mod g_n, in [0, g_n).
+    pub offset: Q,
+    /// g_n = gcd of n . (columns of G).
+    pub period: i64,
+}
+
+impl KnotFamily {
+    pub fn new(normal: &[i64], lattice: &Lattice, center: &[Q]) -> KnotFamily {
+        let period = lattice.generators.iter().fold(0, |g, col| crate::exact::gcd(g, dot_i(normal, col)));
+        let g = Q::int(period);
+        let a = -dot_iq(normal, center);
+        let offset = &a - &(&(&a / &g).floor() * &g);
+        KnotFamily { normal: normal.to_vec(), offset, period }
+    }
+
+    /// Plane values n.x = offset + k period strictly between lo and hi.
+    pub fn values_between(&self, lo: &Q, hi: &Q) -> Vec<Q> {
+        let g = Q::int(self.period);
+        let mut k = ((lo - &self.offset) / &g).floor();
+        let mut out = Vec::new();
+        loop {
+            let v = &self.offset + &(&k * &g);
+            if &v >= hi {
+                break;
+            }
+            if &v > lo {
+                out.push(v);
+            }
+            k = k + Q::one();
+        }
+        out
+    }
+
+    /// Is n . x = v one of these planes?
+    pub fn contains_value(&self, v: &Q) -> bool {
+        ((v - &self.offset) / &Q::int(self.period)).is_integer()
+    }
+}
+
+/// One evaluation cell: a convex polytope inside the unit cube o + z + [0,1]^s
+/// of a cube-class representative z.
+#[derive(Clone, Debug)]
+pub struct Cell {
+    /// Index into `Arrangement::classes`.
+    pub class: usize,
+    pub polytope: Polytope,
+    /// A point strictly inside (the vertex centroid).
+    pub interior: QVec,
+}
+
+#[derive(Clone, Debug)]
+pub struct Arrangement {
+    pub families: Vec<KnotFamily>,
+    /// o: grid planes are x_i in o_i + Z.
+    pub grid_offset: QVec,
+    /// Integer lower corners z of the representative cubes (one per class of Z^s / L).
+    pub classes: Vec<IVec>,
+    /// Cells, sorted by class then vertices.
+    pub cells: Vec<Cell>,
+    /// Regions of the knot-plane arrangement alone per fundamental domain of L.
+    pub pieces_per_fundamental_domain: usize,
+}
+
+impl Arrangement {
+    pub fn new(facts: &SplineFacts, lattice: &Lattice) -> Arrangement {
+        let s = facts.dim;
+        let families: Vec<KnotFamily> =
+            facts.normals.iter().map(|n| KnotFamily::new(n, lattice, &facts.center)).collect();
+        let grid_offset: QVec = (0..s)
+            .map(|i| {
+                let mut e = vec![0; s];
+                e[i] = 1;
+                match families.iter().find(|f| f.normal == e) {
+                    Some(f) => &f.offset - &f.offset.floor(),
+                    None => Q::zero(),
+                }
+            })
+            .collect();
+        let classes = lattice.classes();
+        let mut cells = Vec::new();
+        for (ci, z) in classes.iter().enumerate() {
+            let lo: QVec = (0..s).map(|i| &grid_offset[i] + &Q::int(z[i])).collect();
+            let mut parts = vec![Polytope::unit_cube(&lo)];
+            for f in &families {
+                let nq = to_q(&f.normal);
+                let corner_vals = cube_range(&f.normal, &lo);
+                for v in f.values_between(&corner_vals.0, &corner_vals.1) {
+                    parts = parts
+                        .into_iter()
+                        .flat_map(|p| match p.split(&nq, &v) {
+                            Some((a, b)) => vec![a, b],
+                            None => vec![p],
+                        })
+                        .collect();
+                }
+            }
+            let mut class_cells: Vec<Cell> =
+                parts.into_iter().map(|p| Cell { class: ci, interior: p.centroid(), polytope: p }).collect();
+            class_cells.sort_by(|a, b| a.polytope.vertices.cmp(&b.polytope.vertices));
+            cells.extend(class_cells);
+        }
+        let mut arr = Arrangement { families, grid_offset, classes, cells, pieces_per_fundamental_domain: 0 };
+        arr.pieces_per_fundamental_domain = arr.count_pieces(lattice);
+        arr
+    }
+
+    /// The cube's integer lower corner z for cell i (the cube is o + z + [0,1]^s).
+    pub fn corner(&self, cell: usize) -> &IVec {
+        &self.classes[self.cells[cell].class]
+    }
+
+    /// Index of the class representative for an arbitrary cube corner z, and
+    /// the lattice vector l with z = rep + l.
+    pub fn locate_cube(&self, lattice: &Lattice, z: &[i64]) -> (usize, IVec) {
+        let r = lattice.reduce(z);
+        let ci = self.classes.iter().position(|c| lattice.reduce(c) == r).expect("class representatives are complete");
+        (ci, sub_i(z, &self.classes[ci]))
+    }
+
+    /// Merges cells across grid faces that are not knot planes (mod L) and
+    /// counts the resulting regions: the true polynomial pieces.
+    fn count_pieces(&self, lattice: &Lattice) -> usize {
+        let s = self.grid_offset.len();
+        let mut parent: Vec<usize> = (0..self.cells.len()).collect();
+        fn find(p: &mut Vec<usize>, i: usize) -> usize {
+            let mut r = i;
+            while p[r] != r {
+                r = p[r];
+            }
+            p[i] = r;
+            r
+        }
+        // Index cells by (class, sorted vertex list) for lookup of translates.
+        let mut by_vertices: HashMap<Vec<QVec>, usize> = HashMap::new();
+        for (i, c) in self.cells.iter().enumerate() {
+            by_vertices.insert(c.polytope.vertices.clone(), i);
+        }
+        let facet_key = |verts: &[QVec]| {
+            let mut v = verts.to_vec();
+            v.sort();
+            v
+        };
+        for (i, cell) in self.cells.iter().enumerate() {
+            let z = &self.classes[cell.class];
+            for axis in 0..s {
+                for upper in [false, true] {
+                    let plane = &(&self.grid_offset[axis] + &Q::int(z[axis])) + &Q::int(upper as i64);
+                    let face: Vec<QVec> = cell.polytope.vertices.iter().filter(|v| v[axis] == plane).cloned().collect();
+                    if face.len() < s {
+                        continue;
+                    }
+                    let d: Vec<QVec> = face[1..].iter().map(|v| crate::linalg::sub_q(v, &face[0])).collect();
+                    if crate::linalg::rank(&d) < s - 1 {
+                        continue;
+                    }
+                    let mut e = vec![0; s];
+                    e[axis] = 1;
+                    if self.families.iter().any(|f| f.normal == e && f.contains_value(&plane)) {
+                        continue; // a knot plane separates different pieces
+                    }
+                    // Neighbour cube across this face, moved to its representative.
+                    let mut nz = z.clone();
+                    nz[axis] += if upper { 1 } else { -1 };
+                    let (nci, l) = self.locate_cube(lattice, &nz);
+                    let shift = to_q(&l);
+                    let key = facet_key(&face.iter().map(|v| crate::linalg::sub_q(v, &shift)).collect::<Vec<_>>());
+                    let neighbour = self.cells.iter().enumerate().find(|(_, c)| {
+                        c.class == nci && {
+                            let f: Vec<QVec> =
+                                c.polytope.vertices.iter().filter(|v| key.contains(v)).cloned().collect();
+                            f.len() == key.len()
+                        }
+                    });
+                    if let Some((j, _)) = neighbour {
+                        let (a, b) = (find(&mut parent, i), find(&mut parent, j));
+                        parent[a.max(b)] = a.min(b);
+                    }
+                }
+            }
+        }
+        (0..self.cells.len()).filter(|&i| find(&mut parent, i) == i).count()
+    }
+}
+
+/// min and max of n.x over the unit cube lo + [0,1]^s.
+fn cube_range(n: &[i64], lo: &[Q]) -> (Q, Q) {
+    let base = dot_iq(n, lo);
+    let neg: i64 = n.iter().filter(|&&x| x < 0).sum();
+    let pos: i64 = n.iter().filter(|&&x| x > 0).sum();
+    (&base + &Q::int(neg), &base + &Q::int(pos))
+}

@@ -1,0 +1,104 @@
+//! Bernstein-Bezier form of simplicial pieces: every coefficient is an exact
+//! linear combination of the stencil data, b_alpha = sum_k w_{alpha,k} c_k.
+
+use crate::exact::{factorial, Q};
+use crate::linalg::{solve, QVec};
+use crate::poly::{Monomials, Poly};
+
+#[derive(Clone, Debug)]
+pub struct BbForm {
+    pub degree: usize,
+    /// Simplex vertices v_0..v_s in local coordinates.
+    pub vertices: Vec<QVec>,
+    /// Multi-indices alpha (|alpha| = degree, s+1 entries).
+    pub indices: Vec<Vec<u32>>,
+    /// weights[a][k]: weight of stencil sample k in coefficient a.
+    pub weights: Vec<Vec<Q>>,
+}
+
+impl BbForm {
+    /// Converts the stencil polynomials (local coordinates) on the simplex.
+    pub fn new(vertices: &[QVec], polys: &[Poly], degree: usize) -> BbForm {
+        let s = vertices[0].len();
+        let lam = Monomials::get(s + 1, degree);
+        let indices: Vec<Vec<u32>> =
+            lam.exps.iter().filter(|e| e.iter().sum::<u32>() as usize == degree).cloned().collect();
+        let idx_pos: Vec<usize> = indices.iter().map(|e| lam.index_of(e).unwrap()).collect();
+        // u_j = sum_i lambda_i v_{i,j}; 1 = sum_i lambda_i.
+        let forms: Vec<QVec> = (0..s).map(|j| vertices.iter().map(|v| v[j].clone()).collect()).collect();
+        let ones: QVec = vec![Q::one(); s + 1];
+        let zero = Q::zero();
+        let src = Monomials::get(s, degree);
+        // Homogenised image of every source monomial.
+        let images: Vec<Poly> = src
+            .exps
+            .iter()
+            .map(|beta| {
+                let mut p = Poly::constant(s + 1, degree, Q::one());
+                for (j, &k) in beta.iter().enumerate() {
+                    for _ in 0..k {
+                        p = p.mul_affine(&forms[j], &zero);
+                    }
+                }
+                for _ in 0..(degree - beta.iter().sum::<u32>() as usize) {
+                    p = p.mul_affine(&ones, &zero);
+                }
+                p
+            })
+            .collect();
+        let dfact = factorial(degree as u32);
+        let scale: Vec<Q> =
+            indices.iter().map(|a| a.iter().fold(Q::one(), |acc, &k| acc * factorial(k)) / &dfact).collect();
+        let mut weights = vec![vec![Q::zero(); polys.len()]; indices.len()];
+        for (k, p) in polys.iter().enumerate() {
+            let mut h = Poly::zero(s + 1, degree);
+            for (c, img) in p.coeffs.iter().zip(&images) {
+                if !c.is_zero() {
+                    h.add_scaled(img, c);
+                }
+            }
+            for (a, &pos) in idx_pos.iter().enumerate() {
+                weights[a][k] = &h.coeffs[pos] * &scale[a];
+            }
+        }
+        BbForm { degree, vertices: vertices.to_vec(), indices, weights }
+    }
+
+    /// Barycentric coordinates of a local point.
+    pub fn barycentric(&self, u: &[Q]) -> QVec {
+        let s = u.len();
+        // [v_1 - v_0 ... v_s - v_0] mu = u - v_0; lambda = (1 - sum mu, mu).
+        let rows: Vec<QVec> =
+            (0..s).map(|j| (1..=s).map(|i| &self.vertices[i][j] - &self.vertices[0][j]).collect()).collect();
+        let rhs: QVec = (0..s).map(|j| &u[j] - &self.vertices[0][j]).collect();
+        let mu = solve(&rows, &rhs).expect("simplex");
+        let mut lam = vec![Q::one() - mu.iter().cloned().sum::<Q>()];
+        lam.extend(mu);
+        lam
+    }
+
+    /// The BB coefficients for given stencil data.
+    pub fn coefficients(&self, data: &[Q]) -> QVec {
+        self.weights
+            .iter()
+            .map(|w| w.iter().zip(data).filter(|(a, _)| !a.is_zero()).map(|(a, b)| a * b).sum())
+            .collect()
+    }
+
+    /// sum_alpha b_alpha B_alpha(lambda), exactly.
+    pub fn eval(&self, coeffs: &[Q], lambda: &[Q]) -> Q {
+        let d = self.degree as u32;
+        let df = factorial(d);
+        self.indices
+            .iter()
+            .zip(coeffs)
+            .map(|(a, b)| {
+                let mut t = b * &df;
+                for (l, &k) in lambda.iter().zip(a) {
+                    t = t * l.pow(k) / factorial(k);
+                }
+                t
+            })
+            .sum()
+    }
+}

@@ -1,0 +1,232 @@
+//! The whole derivation for one filter: facts, arrangement, symmetry
+//! orbits, reference pieces with stencils, polynomials and BB form, and the
+//! prefilter. Everything is exact.
+
+use crate::arrangement::Arrangement;
+use crate::bb::BbForm;
+use crate::error::{Error, Result};
+use crate::exact::Q;
+use crate::linalg::{mat_vec_i, mat_vec_q, sub_i, sub_q, to_q, IVec, QVec};
+use crate::pieces::PpForm;
+use crate::poly::Poly;
+use crate::prefilter::{derive_prefilter, Prefilter};
+use crate::spec::Filter;
+use crate::spline::SplineFacts;
+use crate::symmetry::{point_group, SignedPerm};
+use std::collections::HashMap;
+
+/// g(x) = R x + t maps a cell onto its reference cell.
+#[derive(Clone, Debug)]
+pub struct CellMap {
+    /// Index into `Derivation::references`.
+    pub reference: usize,
+    pub rotation: SignedPerm,
+    pub translation: IVec,
+}
+
+impl CellMap {
+    pub fn apply(&self, x: &[Q]) -> QVec {
+        let r: Vec<QVec> = self.rotation.iter().map(|row| to_q(row)).collect();
+        let y = mat_vec_q(&r, x);
+        y.iter().zip(&self.translation).map(|(a, b)| a + &Q::int(*b)).collect()
+    }
+
+    /// g^-1(k) = R^T (k - t) for integer points.
+    pub fn inverse_point(&self, k: &[i64]) -> IVec {
+        let rt = crate::symmetry::inverse(&self.rotation);
+        mat_vec_i(&rt, &sub_i(k, &self.translation))
+    }
+}
+
+/// One representative of an orbit of cells.
+#[derive(Clone, Debug)]
+pub struct ReferencePiece {
+    /// Index into `Arrangement::cells`.
+    pub cell: usize,
+    /// Integer lower corner z of its cube (the cube is o + z + [0,1]^s).
+    pub corner: IVec,
+    /// Vertices in global coordinates.
+    pub vertices: Vec<QVec>,
+    pub is_simplex: bool,
+    /// Lattice points relative to `corner` whose basis function is non-zero here.
+    pub stencil: Vec<IVec>,
+    /// P_k(u) = phi(o + corner + u - (corner + k)) for each stencil offset k,
+    /// in local coordinates u = x - o - corner.
+    pub polys: Vec<Poly>,
+    /// Bernstein-Bezier form when the cell is a simplex.
+    pub bb: Option<BbForm>,
+}
+
+#[derive(Clone, Debug)]
+pub struct Derivation {
+    pub filter: Filter,
+    pub facts: SplineFacts,
+    /// The symmetries used (signed permutations that keep L, Xi and the grid).
+    pub group: Vec<SignedPerm>,
+    pub arrangement: Arrangement,
+    pub pp: PpForm,
+    /// For every cell, its map onto its reference piece.
+    pub maps: Vec<CellMap>,
+    pub references: Vec<ReferencePiece>,
+    pub prefilter: Prefilter,
+    pub(crate) f64_cache: std::sync::OnceLock<crate::eval::F64Tables>,
+}
+
+impl Derivation {
+    pub fn new(filter: &Filter) -> Result<Derivation> {
+        let facts = SplineFacts::new(filter);
+        let lattice = &filter.lattice;
+        // Cheap early refusal: the stencil is about support volume / det G.
+        let estimate = (facts.support_volume / lattice.det()) as usize;
+        if estimate > filter.caps.max_stencil {
+            return Err(Error::StencilCap { size: estimate, cap: filter.caps.max_stencil });
+        }
+        let arrangement = Arrangement::new(&facts, lattice);
+        let o = &arrangement.grid_offset;
+        let group: Vec<SignedPerm> = point_group(filter)
+            .into_iter()
+            .filter(|r| {
+                let rq: Vec<QVec> = r.iter().map(|row| to_q(row)).collect();
+                sub_q(&mat_vec_q(&rq, o), o).iter().all(|x| x.is_integer())
+            })
+            .collect();
+        let pp = PpForm::new(&facts, lattice.det());
+        let maps = cell_maps(&arrangement, lattice, &group);
+        let max_stencil =
+            arrangement.cells.iter().map(|c| stencil_points(&facts, lattice, &c.interior).len()).max().unwrap_or(0);
+        if max_stencil > filter.caps.max_stencil {
+            return Err(Error::StencilCap { size: max_stencil, cap: filter.caps.max_stencil });
+        }
+        let mut references = Vec::new();
+        let mut ref_of_cell: HashMap<usize, usize> = HashMap::new();
+        for (i, m) in maps.iter().enumerate() {
+            if m.reference == i {
+                ref_of_cell.insert(i, references.len());
+                references.push(reference_piece(&arrangement, &facts, lattice, &pp, i));
+            }
+        }
+        let maps = maps.into_iter().map(|m| CellMap { reference: ref_of_cell[&m.reference], ..m }).collect();
+        let prefilter = derive_prefilter(filter, &group, facts.approximation_order)?;
+        Ok(Derivation {
+            filter: filter.clone(),
+            facts,
+            group,
+            arrangement,
+            pp,
+            maps,
+            references,
+            prefilter,
+            f64_cache: Default::default(),
+        })
+    }
+
+    pub fn max_stencil(&self) -> usize {
+        self.references.iter().map(|r| r.stencil.len()).max().unwrap_or(0)
+    }
+
+    /// The polynomials of any cell, obtained directly from the PP-form (not
+    /// through symmetry): (stencil offsets relative to the cell's corner, polys).
+    pub fn cell_polys_direct(&self, cell: usize) -> (Vec<IVec>, Vec<Poly>) {
+        let c = &self.arrangement.cells[cell];
+        let z = self.arrangement.corner(cell);
+        let origin: QVec = (0..z.len()).map(|i| &self.arrangement.grid_offset[i] + &Q::int(z[i])).collect();
+        let pts = stencil_points(&self.facts, &self.filter.lattice, &c.interior);
+        let polys = pts.iter().map(|j| self.pp.local_piece(&origin, &c.interior, j)).collect();
+        (pts.iter().map(|j| sub_i(j, z)).collect(), polys)
+    }
+}
+
+/// Lattice points j with x - j strictly inside the support of phi.
+pub fn stencil_points(facts: &SplineFacts, lattice: &crate::lattice::Lattice, x: &[Q]) -> Vec<IVec> {
+    let s = facts.dim;
+    let half: Vec<Q> = (0..s).map(|i| Q::frac(facts.directions.iter().map(|d| d[i].abs()).sum(), 2)).collect();
+    let lo: IVec = (0..s).map(|i| (&x[i] - &half[i]).floor_i64().unwrap()).collect();
+    let hi: IVec = (0..s).map(|i| (&x[i] + &half[i]).floor_i64().unwrap() + 1).collect();
+    let mut out = Vec::new();
+    let mut j = lo.clone();
+    loop {
+        if lattice.contains(&j) {
+            let y: QVec = x.iter().zip(&j).map(|(a, b)| a - &Q::int(*b)).collect();
+            if facts.in_open_support(&y) {
+                out.push(j.clone());
+            }
+        }
+        let mut k = 0;
+        loop {
+            if k == s {
+                return out;
+            }
+            j[k] += 1;
+            if j[k] <= hi[k] {
+                break;
+            }
+            j[k] = lo[k];
+            k += 1;
+        }
+    }
+}
+
+fn reference_piece(
+    arr: &Arrangement,
+    facts: &SplineFacts,
+    lattice: &crate::lattice::Lattice,
+    pp: &PpForm,
+    cell: usize,
+) -> ReferencePiece {
+    let c = &arr.cells[cell];
+    let z = arr.corner(cell).clone();
+    let origin: QVec = (0..z.len()).map(|i| &arr.grid_offset[i] + &Q::int(z[i])).collect();
+    let pts = stencil_points(facts, lattice, &c.interior);
+    let polys: Vec<Poly> = pts.iter().map(|j| pp.local_piece(&origin, &c.interior, j)).collect();
+    let local_vertices: Vec<QVec> = c.polytope.vertices.iter().map(|v| sub_q(v, &origin)).collect();
+    let bb = if c.polytope.is_simplex() { Some(BbForm::new(&local_vertices, &polys, facts.degree)) } else { None };
+    ReferencePiece {
+        cell,
+        stencil: pts.iter().map(|j| sub_i(j, &z)).collect(),
+        corner: z,
+        vertices: c.polytope.vertices.clone(),
+        is_simplex: c.polytope.is_simplex(),
+        polys,
+        bb,
+    }
+}
+
+/// For each cell, the first (in group order) map onto the least cell of its
+/// orbit. `reference` holds a cell index here; the caller renumbers.
+fn cell_maps(arr: &Arrangement, lattice: &crate::lattice::Lattice, group: &[SignedPerm]) -> Vec<CellMap> {
+    let s = arr.grid_offset.len();
+    let index: HashMap<(usize, Vec<QVec>), usize> =
+        arr.cells.iter().enumerate().map(|(i, c)| ((c.class, c.polytope.vertices.clone()), i)).collect();
+    let o = &arr.grid_offset;
+    arr.cells
+        .iter()
+        .enumerate()
+        .map(|(_, c)| {
+            let z = &arr.classes[c.class];
+            let mut best: Option<CellMap> = None;
+            let mut best_cell = usize::MAX;
+            for r in group {
+                let rq: Vec<QVec> = r.iter().map(|row| to_q(row)).collect();
+                // Image cube lower corner: componentwise min of R(o+z) and R(o+z+1).
+                let lo: QVec = (0..s).map(|k| &o[k] + &Q::int(z[k])).collect();
+                let hi: QVec = lo.iter().map(|x| x + &Q::one()).collect();
+                let (a, b) = (mat_vec_q(&rq, &lo), mat_vec_q(&rq, &hi));
+                let img_lo: QVec = a.iter().zip(&b).map(|(x, y)| x.clone().min(y.clone())).collect();
+                let zq = sub_q(&img_lo, o);
+                let zi: IVec = zq.iter().map(|x| x.to_i64().expect("grid-preserving symmetry")).collect();
+                let (ci, l) = arr.locate_cube(lattice, &zi);
+                let t: IVec = l.iter().map(|x| -x).collect();
+                let tq = to_q(&t);
+                let mut verts: Vec<QVec> =
+                    c.polytope.vertices.iter().map(|v| crate::linalg::add_q(&mat_vec_q(&rq, v), &tq)).collect();
+                verts.sort();
+                let j = *index.get(&(ci, verts)).expect("symmetries map cells onto cells");
+                if j < best_cell {
+                    best_cell = j;
+                    best = Some(CellMap { reference: j, rotation: r.clone(), translation: t });
+                }
+            }
+            best.expect("identity is in the group")
+        })
+        .collect()
+}

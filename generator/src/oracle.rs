@@ -1,0 +1,837 @@
+//! An independent box-spline evaluator, used as a test oracle for the
+//! piecewise-polynomial derivation: de Boor's recurrence (BOX_SPLINES.md §3
+//! step 5) in exact rationals, memoised.
+//!
+//! It deliberately shares no code with the rest of the generator except
+//! [`crate::exact`], [`crate::linalg`], [`crate::lattice`] and [`crate::spec`].
+//!
+//! Method. Equal columns are grouped into distinct directions `d_k` with
+//! multiplicities, so a sub-multiset of Xi is a multiplicity vector `mu`
+//! (stored once per distinct `mu` in a [`Node`]). For a node with `m`
+//! columns, `m > s`, and any `t` with `Xi t = x`:
+//!
+//! `(m - s) M_mu(x) = sum_k [ T_k M_{mu-e_k}(x) + (mu_k - T_k) M_{mu-e_k}(x - d_k) ]`
+//!
+//! where `T_k` is the sum of `t` over the columns equal to `d_k`. The node
+//! fixes `t` by solving with a basis `B` of `s` of its distinct directions (one
+//! column each, all other entries 0), so only the basis directions contribute
+//! an unshifted term. Terms whose sub-multiset no longer spans are dropped
+//! (they vanish off the knot planes). The base case `m = s` is
+//! `1/|det B|` on `B[0,1)^s`.
+//!
+//! Every point met while evaluating at `p` is `p` minus an integer vector, so
+//! points are stored as `base + shift` with `base = p - floor(p)` fixed and an
+//! integer `shift`; the memo is keyed on `(node, shift)` and is reset only when
+//! the fractional base changes (all `phi(x - j)` of one [`Oracle::spline_value`]
+//! call share it). Before any rational work each call rejects points outside
+//! the node's zonotope exactly, by integer tests against every knot-plane
+//! normal of the filter (the facet normals of every sub-zonotope are among
+//! them) and the coordinate axes.
+//!
+//! Validity: the recurrence and the half-open base case are exact at points
+//! off all knot planes of the shifted spline space (n.x not in (1/2)Z for
+//! the knot normals n, after centring). On a knot plane the dropped
+//! non-spanning terms need not vanish and the result is meaningless (not even
+//! a one-sided limit): callers must evaluate strictly inside cells.
+
+use crate::exact::Q;
+use crate::lattice::Lattice;
+use crate::linalg::{dot_iq, inverse, primitive_normal, rank_of_vectors, IVec, QVec};
+use crate::spec::Filter;
+use std::collections::HashMap;
+use std::hash::{BuildHasherDefault, Hasher};
+
+/// Largest supported dimension.
+const MAXD: usize = 4;
+/// Integer shift relative to the current fractional base point.
+type Shift = [i64; MAXD];
+/// A child index not yet resolved to a node.
+const UNRESOLVED: u32 = u32::MAX;
+
+/// A tiny multiplicative hasher for the packed `u128` memo keys (the default
+/// SipHash is a measurable share of the run time here).
+#[derive(Default)]
+struct KeyHasher(u64);
+
+impl Hasher for KeyHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.write_u64(b as u64);
+        }
+    }
+    fn write_u64(&mut self, x: u64) {
+        self.0 = (self.0.rotate_left(23) ^ x).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    }
+    fn write_u128(&mut self, x: u128) {
+        self.write_u64(x as u64);
+        self.write_u64((x >> 64) as u64);
+        self.0 ^= self.0 >> 29;
+    }
+}
+
+type Memo = HashMap<u128, Q, BuildHasherDefault<KeyHasher>>;
+
+#[derive(Clone, Copy)]
+struct Child {
+    /// Index of the distinct direction removed.
+    dir: usize,
+    /// Mixed-radix code of the child multiplicity vector.
+    code: u64,
+    /// Node index once resolved, else [`UNRESOLVED`].
+    node: u32,
+}
+
+/// One sub-multiset of Xi (a multiplicity vector over the distinct directions).
+struct Node {
+    mult: Vec<u32>,
+    /// Number of columns.
+    m: usize,
+    /// B^-1 = adj / den with den = |det B| > 0 (rows of adj, integers).
+    adj: Vec<Shift>,
+    den: i64,
+    /// B^-1 in rationals (for t at the base point).
+    binv: Vec<QVec>,
+    /// 1 / |det B| (the base-case value).
+    inv_det: Q,
+    /// Zonotope bounds lo <= n.x <= hi for each oracle normal n.
+    lo: Vec<i64>,
+    hi: Vec<i64>,
+    /// Children that still span (the others are dropped terms).
+    children: Vec<Child>,
+    /// For each child, the position of its direction in `basis`, if any.
+    child_basis_pos: Vec<Option<usize>>,
+}
+
+/// Independent box-spline evaluator: de Boor's recurrence, exact, memoised.
+pub struct Oracle {
+    dim: usize,
+    /// Distinct directions, padded to MAXD with zeros (their multiplicities
+    /// are the root node's `mult`).
+    dirs: Vec<Shift>,
+    /// Mixed-radix strides of the multiplicity codes.
+    stride: Vec<u64>,
+    /// |det G|.
+    det_g: i64,
+    /// c = (1/2) sum xi.
+    center: QVec,
+    lattice: Lattice,
+    /// Bounding box of the full support (non-centred): lo_i <= x_i <= hi_i.
+    box_lo: IVec,
+    box_hi: IVec,
+    /// Knot-plane normals of the filter plus the coordinate axes.
+    normals: Vec<Shift>,
+    nodes: Vec<Node>,
+    node_of_code: HashMap<u64, u32>,
+    root: u32,
+    /// Current fractional base point (None before the first evaluation).
+    base: Option<QVec>,
+    /// floor(n.base) per normal, and whether n.base is an integer.
+    n_floor: Vec<i64>,
+    n_int: Vec<bool>,
+    /// B^-1 base per node, for the current base.
+    t0: Vec<Option<QVec>>,
+    memo: Memo,
+    /// Statistics: recursive calls that reached the memo lookup.
+    visits: u64,
+}
+
+fn pad(v: &[i64]) -> Shift {
+    let mut out = [0i64; MAXD];
+    out[..v.len()].copy_from_slice(v);
+    out
+}
+
+fn dot_s(a: &Shift, b: &Shift) -> i64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]
+}
+
+fn pack(node: u32, sh: &Shift) -> u128 {
+    let mut k = node as u128;
+    for (i, &x) in sh.iter().enumerate() {
+        assert!(x.abs() < 1 << 23, "shift out of the oracle's packed-key range");
+        k |= (((x + (1 << 23)) as u128) & 0xFF_FFFF) << (32 + 24 * i);
+    }
+    k
+}
+
+impl Oracle {
+    pub fn new(filter: &Filter) -> Oracle {
+        let dim = filter.dim();
+        assert!((1..=MAXD).contains(&dim), "oracle supports dimensions 1..=4");
+        let mut distinct: Vec<IVec> = Vec::new();
+        let mut mult: Vec<u32> = Vec::new();
+        for d in &filter.directions {
+            match distinct.iter().position(|e| e == d) {
+                Some(k) => mult[k] += 1,
+                None => {
+                    distinct.push(d.clone());
+                    mult.push(1);
+                }
+            }
+        }
+        let mut stride = Vec::with_capacity(mult.len());
+        let mut acc: u64 = 1;
+        for &mk in &mult {
+            stride.push(acc);
+            acc = acc.checked_mul(mk as u64 + 1).expect("too many sub-multisets for the oracle");
+        }
+        let mut center = vec![Q::zero(); dim];
+        for d in &filter.directions {
+            for (c, &x) in center.iter_mut().zip(d) {
+                *c += Q::frac(x, 2);
+            }
+        }
+        let box_lo: IVec = (0..dim).map(|i| filter.directions.iter().map(|d| d[i].min(0)).sum()).collect();
+        let box_hi: IVec = (0..dim).map(|i| filter.directions.iter().map(|d| d[i].max(0)).sum()).collect();
+        // Knot-plane normals: one per linearly independent (s-1)-subset of
+        // distinct directions, plus the axes (cheap bounding-box tests).
+        let mut normals: Vec<IVec> = Vec::new();
+        let mut push = |n: IVec| {
+            if !normals.contains(&n) {
+                normals.push(n);
+            }
+        };
+        for i in 0..dim {
+            let mut e = vec![0i64; dim];
+            e[i] = 1;
+            push(e);
+        }
+        let mut subset: Vec<usize> = Vec::new();
+        fn rec(start: usize, k: usize, n: usize, cur: &mut Vec<usize>, f: &mut dyn FnMut(&[usize])) {
+            if cur.len() == k {
+                f(cur);
+                return;
+            }
+            for i in start..n {
+                cur.push(i);
+                rec(i + 1, k, n, cur, f);
+                cur.pop();
+            }
+        }
+        if dim == 1 {
+            // No knot-plane normals beyond the axis.
+        } else {
+            rec(0, dim - 1, distinct.len(), &mut subset, &mut |s: &[usize]| {
+                let vs: Vec<&[i64]> = s.iter().map(|&k| distinct[k].as_slice()).collect();
+                if let Some(n) = primitive_normal(&vs, dim) {
+                    push(n);
+                }
+            });
+        }
+        let mut o = Oracle {
+            dim,
+            dirs: distinct.iter().map(|d| pad(d)).collect(),
+            stride,
+            det_g: filter.lattice.det(),
+            center,
+            lattice: filter.lattice.clone(),
+            box_lo,
+            box_hi,
+            n_floor: vec![0; normals.len()],
+            n_int: vec![false; normals.len()],
+            normals: normals.iter().map(|n| pad(n)).collect(),
+            nodes: Vec::new(),
+            node_of_code: HashMap::new(),
+            root: 0,
+            base: None,
+            t0: Vec::new(),
+            memo: Memo::default(),
+            visits: 0,
+        };
+        o.root = o.node_for(&mult);
+        o
+    }
+
+    fn code_of(&self, mult: &[u32]) -> u64 {
+        mult.iter().zip(&self.stride).map(|(&m, &s)| m as u64 * s).sum()
+    }
+
+    fn spans(&self, mult: &[u32]) -> bool {
+        let present: Vec<IVec> =
+            (0..mult.len()).filter(|&k| mult[k] > 0).map(|k| self.dirs[k][..self.dim].to_vec()).collect();
+        rank_of_vectors(&present) == self.dim
+    }
+
+    /// The node of a spanning multiplicity vector, created on first use.
+    fn node_for(&mut self, mult: &[u32]) -> u32 {
+        let code = self.code_of(mult);
+        if let Some(&i) = self.node_of_code.get(&code) {
+            return i;
+        }
+        let s = self.dim;
+        debug_assert!(self.spans(mult));
+        // Greedy basis among the present distinct directions.
+        let mut basis: Vec<usize> = Vec::new();
+        let mut vecs: Vec<IVec> = Vec::new();
+        for (k, &mk) in mult.iter().enumerate() {
+            if mk == 0 || basis.len() == s {
+                continue;
+            }
+            vecs.push(self.dirs[k][..s].to_vec());
+            if rank_of_vectors(&vecs) == vecs.len() {
+                basis.push(k);
+            } else {
+                vecs.pop();
+            }
+        }
+        assert_eq!(basis.len(), s, "node does not span");
+        // Row-major B (columns are the basis directions), then B^-1.
+        let b: Vec<QVec> = (0..s).map(|i| basis.iter().map(|&k| Q::int(self.dirs[k][i])).collect()).collect();
+        let binv = inverse(&b).expect("basis is invertible");
+        let det = crate::linalg::det(&b).abs().to_i64().expect("integer determinant");
+        let adj: Vec<Shift> = binv
+            .iter()
+            .map(|row| {
+                let r: IVec = row.iter().map(|x| (x * &Q::int(det)).to_i64().expect("integer adjugate")).collect();
+                pad(&r)
+            })
+            .collect();
+        let lo = self
+            .normals
+            .iter()
+            .map(|n| (0..mult.len()).map(|k| mult[k] as i64 * dot_s(n, &self.dirs[k]).min(0)).sum())
+            .collect();
+        let hi = self
+            .normals
+            .iter()
+            .map(|n| (0..mult.len()).map(|k| mult[k] as i64 * dot_s(n, &self.dirs[k]).max(0)).sum())
+            .collect();
+        let m: usize = mult.iter().map(|&x| x as usize).sum();
+        let mut children = Vec::new();
+        let mut child_basis_pos = Vec::new();
+        if m > s {
+            for k in 0..mult.len() {
+                if mult[k] == 0 {
+                    continue;
+                }
+                let mut cm = mult.to_vec();
+                cm[k] -= 1;
+                if cm[k] == 0 && !self.spans(&cm) {
+                    continue; // M of a non-spanning set vanishes off the knot planes
+                }
+                children.push(Child { dir: k, code: code - self.stride[k], node: UNRESOLVED });
+                child_basis_pos.push(basis.iter().position(|&bk| bk == k));
+            }
+        }
+        let node = Node {
+            mult: mult.to_vec(),
+            m,
+            adj,
+            den: det,
+            binv,
+            inv_det: Q::frac(1, det),
+            lo,
+            hi,
+            children,
+            child_basis_pos,
+        };
+        let idx = self.nodes.len() as u32;
+        self.nodes.push(node);
+        self.t0.push(None);
+        self.node_of_code.insert(code, idx);
+        idx
+    }
+
+    fn child_node(&mut self, node: u32, c: usize) -> u32 {
+        let ch = self.nodes[node as usize].children[c];
+        if ch.node != UNRESOLVED {
+            return ch.node;
+        }
+        let idx = match self.node_of_code.get(&ch.code) {
+            Some(&i) => i,
+            None => {
+                let mut cm = self.nodes[node as usize].mult.clone();
+                cm[ch.dir] -= 1;
+                self.node_for(&cm)
+            }
+        };
+        self.nodes[node as usize].children[c].node = idx;
+        idx
+    }
+
+    /// Makes `p` the current point: sets the fractional base (resetting the
+    /// memo if it changed) and returns the integer shift floor(p).
+    fn set_point(&mut self, p: &[Q]) -> Shift {
+        assert_eq!(p.len(), self.dim, "point dimension");
+        let fl: IVec = p.iter().map(|x| x.floor_i64().expect("coordinate out of range")).collect();
+        let base: QVec = p.iter().zip(&fl).map(|(x, &f)| x - &Q::int(f)).collect();
+        if self.base.as_ref() != Some(&base) {
+            self.memo.clear();
+            self.t0.iter_mut().for_each(|t| *t = None);
+            for (i, n) in self.normals.iter().enumerate() {
+                let v = dot_iq(&n[..self.dim], &base);
+                self.n_floor[i] = v.floor_i64().expect("small");
+                self.n_int[i] = v.is_integer();
+            }
+            self.base = Some(base);
+        }
+        pad(&fl)
+    }
+
+    /// Exact zonotope membership (closed) of base + sh for a node.
+    fn outside(&self, node: &Node, sh: &Shift) -> bool {
+        for (i, n) in self.normals.iter().enumerate() {
+            let v = self.n_floor[i] + dot_s(n, sh);
+            // n.x = v + f with 0 <= f < 1 (f = 0 iff n_int).
+            if v < node.lo[i] || v > node.hi[i] || (v == node.hi[i] && !self.n_int[i]) {
+                return true;
+            }
+        }
+        false
+    }
+
+    /// t = B^-1 (base + sh) for a node's basis.
+    fn t_at(&mut self, idx: u32, sh: &Shift) -> QVec {
+        let s = self.dim;
+        if self.t0[idx as usize].is_none() {
+            let base = self.base.as_ref().expect("base set");
+            let t0 = self.nodes[idx as usize].binv.iter().map(|row| crate::linalg::dot_q(row, base)).collect();
+            self.t0[idx as usize] = Some(t0);
+        }
+        let node = &self.nodes[idx as usize];
+        let t0 = self.t0[idx as usize].as_ref().unwrap();
+        (0..s)
+            .map(|r| {
+                let a = dot_s(&node.adj[r], sh);
+                if a == 0 {
+                    t0[r].clone()
+                } else {
+                    &t0[r] + &Q::frac(a, node.den)
+                }
+            })
+            .collect()
+    }
+
+    /// M_node(base + sh).
+    fn eval(&mut self, idx: u32, sh: &Shift) -> Q {
+        if self.outside(&self.nodes[idx as usize], sh) {
+            return Q::zero();
+        }
+        let key = pack(idx, sh);
+        if let Some(v) = self.memo.get(&key) {
+            return v.clone();
+        }
+        self.visits += 1;
+        let t = self.t_at(idx, sh);
+        let (m, value) = {
+            let node = &self.nodes[idx as usize];
+            (node.m, if node.m == self.dim { Some(node.inv_det.clone()) } else { None })
+        };
+        let value = if let Some(inv_det) = value {
+            if t.iter().all(|ti| !ti.is_negative() && *ti < Q::one()) {
+                inv_det
+            } else {
+                Q::zero()
+            }
+        } else {
+            let mut acc = Q::zero();
+            let nch = self.nodes[idx as usize].children.len();
+            for c in 0..nch {
+                let child = self.child_node(idx, c);
+                let node = &self.nodes[idx as usize];
+                let k = node.children[c].dir;
+                let mu = node.mult[k] as i64;
+                let pos = node.child_basis_pos[c];
+                let d = self.dirs[k];
+                let shifted: Shift = [sh[0] - d[0], sh[1] - d[1], sh[2] - d[2], sh[3] - d[3]];
+                let behind = self.eval(child, &shifted);
+                match pos {
+                    Some(p) => {
+                        let here = self.eval(child, sh);
+                        if !here.is_zero() {
+                            acc += &t[p] * &here;
+                        }
+                        if !behind.is_zero() {
+                            acc += &(&Q::int(mu) - &t[p]) * &behind;
+                        }
+                    }
+                    None => {
+                        if !behind.is_zero() {
+                            acc += &Q::int(mu) * &behind;
+                        }
+                    }
+                }
+            }
+            acc / Q::int((m - self.dim) as i64)
+        };
+        self.memo.insert(key, value.clone());
+        value
+    }
+
+    /// Non-centred M_Xi(x) (integral 1, support Xi[0,1)^s), valid at points off all knot planes.
+    pub fn box_spline(&mut self, x: &[Q]) -> Q {
+        let sh = self.set_point(x);
+        self.eval(self.root, &sh)
+    }
+
+    /// Centred, lattice-normalised phi(x) = |det G| * M_Xi(x + c), c = (1/2) sum xi.
+    pub fn phi(&mut self, x: &[Q]) -> Q {
+        let p: QVec = x.iter().zip(&self.center).map(|(a, b)| a + b).collect();
+        Q::int(self.det_g) * self.box_spline(&p)
+    }
+
+    /// The non-zero weights phi(x - j) over the lattice points j (each j
+    /// once, in lexicographic order). Off the knot planes these are exactly
+    /// the j whose shifted support contains x in its interior.
+    pub fn weights(&mut self, x: &[Q]) -> Vec<(IVec, Q)> {
+        let s = self.dim;
+        let p: QVec = x.iter().zip(&self.center).map(|(a, b)| a + b).collect();
+        let sh = self.set_point(&p);
+        // phi(x - j) = |det G| M(p - j) != 0 needs box_lo <= p - j <= box_hi.
+        let lo: IVec = (0..s).map(|i| (&p[i] - &Q::int(self.box_hi[i])).floor_i64().unwrap()).collect();
+        let hi: IVec = (0..s).map(|i| (&p[i] - &Q::int(self.box_lo[i])).floor_i64().unwrap() + 1).collect();
+        let mut out = Vec::new();
+        let mut j = lo.clone();
+        let g = Q::int(self.det_g);
+        'outer: loop {
+            if self.lattice.contains(&j) {
+                let jj = pad(&j);
+                let shift: Shift = [sh[0] - jj[0], sh[1] - jj[1], sh[2] - jj[2], sh[3] - jj[3]];
+                let v = self.eval(self.root, &shift);
+                if !v.is_zero() {
+                    out.push((j.clone(), &g * &v));
+                }
+            }
+            for i in (0..s).rev() {
+                if j[i] < hi[i] {
+                    j[i] += 1;
+                    continue 'outer;
+                }
+                j[i] = lo[i];
+            }
+            break;
+        }
+        out
+    }
+
+    /// The spline value sum_{j in L} data(j) * phi(x - j) (j over all lattice
+    /// points whose shifted support contains x; `data` is called only where
+    /// phi(x - j) is non-zero).
+    pub fn spline_value(&mut self, x: &[Q], data: &dyn Fn(&[i64]) -> Q) -> Q {
+        let mut acc = Q::zero();
+        for (j, w) in self.weights(x) {
+            acc += &(data(&j) * w);
+        }
+        acc
+    }
+
+    /// The centre c = (1/2) sum xi.
+    pub fn center(&self) -> &[Q] {
+        &self.center
+    }
+
+    /// Number of sub-multiset nodes created and of memo misses so far
+    /// (diagnostics for tests and timing reports).
+    pub fn stats(&self) -> (usize, u64) {
+        (self.nodes.len(), self.visits)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::spec::{catalog, Caps};
+    use std::time::Instant;
+
+    /// Deterministic LCG (Knuth's MMIX constants).
+    struct Lcg(u64);
+    impl Lcg {
+        fn next(&mut self) -> u64 {
+            self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            self.0 >> 33
+        }
+        /// Uniform integer in [lo, hi].
+        fn range(&mut self, lo: i64, hi: i64) -> i64 {
+            lo + (self.next() % ((hi - lo + 1) as u64)) as i64
+        }
+    }
+
+    const DEN: i64 = 97;
+
+    /// Knot-plane normals of a filter (every (s-1)-subset of columns),
+    /// computed independently of the oracle's own list.
+    fn knot_normals(f: &Filter) -> Vec<IVec> {
+        fn rec(f: &Filter, start: usize, cur: &mut Vec<usize>, out: &mut Vec<IVec>) {
+            let s = f.dim();
+            if cur.len() == s - 1 {
+                let vs: Vec<&[i64]> = cur.iter().map(|&k| f.directions[k].as_slice()).collect();
+                if let Some(n) = primitive_normal(&vs, s) {
+                    if !out.contains(&n) {
+                        out.push(n);
+                    }
+                }
+                return;
+            }
+            for i in start..f.directions.len() {
+                cur.push(i);
+                rec(f, i + 1, cur, out);
+                cur.pop();
+            }
+        }
+        let mut out = Vec::new();
+        rec(f, 0, &mut Vec::new(), &mut out);
+        out
+    }
+
+    /// A random point with coordinates k/97 in (-r, r), redrawn until it is off
+    /// every (centred or not) knot plane: 2 n.x not an integer, i.e. 97 does
+    /// not divide n.k, for every knot normal n, and off the axis planes.
+    fn generic_point(rng: &mut Lcg, f: &Filter, r: i64) -> QVec {
+        let normals = knot_normals(f);
+        loop {
+            let k: IVec = (0..f.dim()).map(|_| rng.range(-r * DEN + 1, r * DEN - 1)).collect();
+            let on_plane =
+                normals.iter().any(|n| crate::linalg::dot_i(n, &k) % DEN == 0) || k.iter().any(|&x| x % DEN == 0);
+            if !on_plane {
+                return k.iter().map(|&x| Q::frac(x, DEN)).collect();
+            }
+        }
+    }
+
+    fn q(n: i64, d: i64) -> Q {
+        Q::frac(n, d)
+    }
+
+    fn custom(lattice: &str, dirs: &[&[i64]]) -> Filter {
+        Filter::new(
+            "test",
+            "",
+            Lattice::builtin(lattice).unwrap(),
+            dirs.iter().map(|d| d.to_vec()).collect(),
+            Caps::default(),
+        )
+        .unwrap()
+    }
+
+    /// Centred linear B-spline (hat).
+    fn hat(t: &Q) -> Q {
+        let v = Q::one() - t.abs();
+        if v.is_negative() {
+            Q::zero()
+        } else {
+            v
+        }
+    }
+
+    /// Centred quadratic B-spline.
+    fn b2(t: &Q) -> Q {
+        let a = t.abs();
+        if a < q(1, 2) {
+            q(3, 4) - &a * &a
+        } else if a < q(3, 2) {
+            let u = q(3, 2) - a;
+            &u * &u / Q::int(2)
+        } else {
+            Q::zero()
+        }
+    }
+
+    /// Centred cubic B-spline.
+    fn b3(t: &Q) -> Q {
+        let a = t.abs();
+        if a < Q::one() {
+            q(2, 3) - &a * &a + &a * &a * &a / Q::int(2)
+        } else if a < Q::int(2) {
+            let u = Q::int(2) - a;
+            &u * &u * &u / Q::int(6)
+        } else {
+            Q::zero()
+        }
+    }
+
+    /// Half the widest extent of the support's bounding box, rounded up.
+    fn radius(f: &Filter) -> i64 {
+        (0..f.dim())
+            .map(|i| f.directions.iter().map(|d| d[i].abs()).sum::<i64>())
+            .max()
+            .unwrap()
+            .saturating_add(1)
+            .div_euclid(2)
+    }
+
+    fn pts(n: usize, seed: u64, f: &Filter, r: i64) -> Vec<QVec> {
+        let mut rng = Lcg(seed);
+        (0..n).map(|_| generic_point(&mut rng, f, r)).collect()
+    }
+
+    #[test]
+    fn oracle_tensor_products_match_closed_forms() {
+        // square, e1,e1,e2,e2: hat(x) hat(y)
+        let f = custom("square", &[&[1, 0], &[1, 0], &[0, 1], &[0, 1]]);
+        let mut o = Oracle::new(&f);
+        for x in pts(12, 1, &f, 2) {
+            assert_eq!(o.phi(&x), hat(&x[0]) * hat(&x[1]), "bilinear at {x:?}");
+        }
+        // square, flipped columns give the same centred element.
+        let g = custom("square", &[&[1, 0], &[-1, 0], &[0, 1], &[0, -1]]);
+        let mut og = Oracle::new(&g);
+        for x in pts(12, 2, &g, 2) {
+            assert_eq!(og.phi(&x), hat(&x[0]) * hat(&x[1]), "flipped bilinear at {x:?}");
+        }
+        type Profile = fn(&Q) -> Q;
+        let closed: [(&str, Profile); 3] = [("cc_trilinear", hat), ("cc_triquadratic", b2), ("cc_tricubic", b3)];
+        for (name, b) in closed {
+            let f = catalog::get(name).unwrap();
+            let mut o = Oracle::new(&f);
+            let mut nonzero = 0;
+            for x in pts(10, 3, &f, radius(&f)) {
+                let want = b(&x[0]) * b(&x[1]) * b(&x[2]);
+                nonzero += !want.is_zero() as usize;
+                assert_eq!(o.phi(&x), want, "{name} at {x:?}");
+            }
+            assert!(nonzero >= 3, "{name}: too few points inside the support");
+        }
+        // bcc12 = tricubic on 2Z^3, normalised for det G = 4: (1/2) prod b3(x_i/2).
+        let f = catalog::get("bcc12").unwrap();
+        let mut o = Oracle::new(&f);
+        for x in pts(10, 4, &f, 4) {
+            let want = q(1, 2) * b3(&(&x[0] / &Q::int(2))) * b3(&(&x[1] / &Q::int(2))) * b3(&(&x[2] / &Q::int(2)));
+            assert_eq!(o.phi(&x), want, "bcc12 at {x:?}");
+        }
+    }
+
+    /// The Courant hat, by barycentric coordinates on the six triangles
+    /// around the origin of the three-direction mesh: in triangle (0, v1, v2)
+    /// with x = a v1 + b v2 (Cramer), phi = 1 - a - b.
+    fn courant_hat(x: &[Q]) -> Q {
+        let ring: [(i64, i64); 6] = [(1, 0), (1, 1), (0, 1), (-1, 0), (-1, -1), (0, -1)];
+        for i in 0..6 {
+            let (p, r) = (ring[i], ring[(i + 1) % 6]);
+            let det = Q::int(p.0 * r.1 - p.1 * r.0);
+            let a = (&x[0] * &Q::int(r.1) - &x[1] * &Q::int(r.0)) / &det;
+            let b = (&x[1] * &Q::int(p.0) - &x[0] * &Q::int(p.1)) / &det;
+            if !a.is_negative() && !b.is_negative() && &a + &b <= Q::one() {
+                return Q::one() - a - b;
+            }
+        }
+        Q::zero()
+    }
+
+    #[test]
+    fn oracle_courant_is_the_barycentric_hat() {
+        let f = catalog::get("courant").unwrap();
+        let mut o = Oracle::new(&f);
+        // Hand-picked points: near the centre, in each of the six triangles.
+        let hand: Vec<(QVec, Q)> = vec![
+            (vec![q(1, 97), q(2, 97)], q(95, 97)), // 0 < x < y: 1 - y
+            (vec![q(2, 97), q(1, 97)], q(95, 97)), // 0 < y < x: 1 - x
+            (vec![q(1, 2), q(1, 5)], q(1, 2)),     // 1 - x
+            (vec![q(1, 5), q(1, 2)], q(1, 2)),     // 1 - y
+            (vec![q(-1, 3), q(1, 4)], q(5, 12)),   // 1 - (y - x)
+            (vec![q(1, 4), q(-1, 3)], q(5, 12)),   // 1 - (x - y)
+            (vec![q(-1, 2), q(-1, 5)], q(1, 2)),   // 1 + x
+            (vec![q(-2, 7), q(-3, 5)], q(2, 5)),   // 1 + y
+            (vec![q(4, 5), q(-1, 4)], Q::zero()),  // outside the hexagon
+            (vec![q(3, 2), q(1, 3)], Q::zero()),
+        ];
+        for (x, want) in &hand {
+            assert_eq!(courant_hat(x), *want, "hand formula at {x:?}");
+            assert_eq!(o.phi(x), *want, "oracle at {x:?}");
+        }
+        let mut inside = 0;
+        for x in pts(40, 5, &f, radius(&f)) {
+            let want = courant_hat(&x);
+            inside += !want.is_zero() as usize;
+            assert_eq!(o.phi(&x), want, "courant at {x:?}");
+        }
+        assert!(inside >= 5, "only {inside} of 40 points inside");
+        // Non-centred: M is supported on the hexagon around c = (1,1), max 1.
+        assert_eq!(o.box_spline(&[q(100, 97), q(99, 97)]), q(94, 97)); // phi(3/97, 2/97) = 1 - 3/97
+        assert_eq!(o.box_spline(&[q(-1, 97), q(1, 2)]), Q::zero());
+        // Flipping a column shifts M: M_{Xi with -xi}(x) = M_Xi(x + xi).
+        let g = custom("square", &[&[1, 0], &[0, 1], &[-1, -1]]);
+        let mut og = Oracle::new(&g);
+        for x in pts(20, 6, &f, 2) {
+            let shifted = vec![&x[0] + &Q::one(), &x[1] + &Q::one()];
+            assert_eq!(og.box_spline(&x), o.box_spline(&shifted), "flip at {x:?}");
+            assert_eq!(og.phi(&x), courant_hat(&x));
+        }
+    }
+
+    #[test]
+    fn oracle_partition_of_unity_and_linear_reproduction_for_the_catalog() {
+        for f in catalog::all().unwrap() {
+            let mut o = Oracle::new(&f);
+            for (i, x) in pts(3, 7, &f, radius(&f)).into_iter().enumerate() {
+                let w = o.weights(&x);
+                let total: Q = w.iter().map(|(_, v)| v.clone()).sum();
+                assert_eq!(total, Q::one(), "{}: partition of unity at {x:?}", f.name);
+                assert_eq!(o.spline_value(&x, &|_| Q::one()), Q::one());
+                // Every centred element here is symmetric with rho >= 2, so it
+                // reproduces linear polynomials: sum_j j phi(x - j) = x.
+                for k in 0..f.dim() {
+                    let v = o.spline_value(&x, &|j: &[i64]| Q::int(j[k]));
+                    assert_eq!(v, x[k], "{}: linear reproduction, coordinate {k}, point {i}", f.name);
+                }
+                assert!(w.iter().all(|(j, _)| f.lattice.contains(j)));
+            }
+        }
+    }
+
+    #[test]
+    fn oracle_phi_is_symmetric() {
+        for f in catalog::all().unwrap() {
+            let mut o = Oracle::new(&f);
+            let mut nonzero = 0;
+            for x in pts(6, 11, &f, radius(&f)) {
+                let neg: QVec = x.iter().map(|v| -v).collect();
+                let a = o.phi(&x);
+                nonzero += !a.is_zero() as usize;
+                assert_eq!(a, o.phi(&neg), "{}: phi(x) != phi(-x) at {x:?}", f.name);
+                assert!(!a.is_negative());
+            }
+            assert!(nonzero >= 1, "{}: no point inside the support", f.name);
+        }
+    }
+
+    #[test]
+    fn oracle_memo_is_consistent_across_points() {
+        // Interleaving points (memo resets) must agree with fresh oracles.
+        let f = catalog::get("bcc7").unwrap();
+        let ps = pts(5, 13, &f, 2);
+        let mut shared = Oracle::new(&f);
+        let first: Vec<Q> = ps.iter().map(|x| shared.phi(x)).collect();
+        for (x, v) in ps.iter().zip(&first).rev() {
+            assert_eq!(shared.phi(x), *v);
+            assert_eq!(Oracle::new(&f).phi(x), *v);
+        }
+        // A lattice translate: phi(x - j) through weights equals direct phi.
+        let x = &ps[0];
+        let mut o = Oracle::new(&f);
+        for (j, w) in o.weights(x) {
+            let y: QVec = x.iter().zip(&j).map(|(a, &b)| a - &Q::int(b)).collect();
+            assert_eq!(Oracle::new(&f).phi(&y), w);
+        }
+    }
+
+    #[test]
+    fn oracle_timing_release() {
+        for name in ["bcc12", "cc_tricubic", "bcc8", "bcc7", "fcc6"] {
+            let f = catalog::get(name).unwrap();
+            let points = pts(20, 17, &f, 5);
+            let data: HashMap<IVec, i64> = HashMap::new();
+            let data = std::cell::RefCell::new(data);
+            let fetch = |j: &[i64]| -> Q {
+                let mut d = data.borrow_mut();
+                let n = d.len() as u64;
+                let v = *d.entry(j.to_vec()).or_insert_with(|| ((n.wrapping_mul(2654435761) >> 3) % 201) as i64 - 100);
+                Q::int(v)
+            };
+            let mut o = Oracle::new(&f);
+            let start = Instant::now();
+            for x in &points {
+                let _ = o.spline_value(x, &fetch);
+            }
+            let el = start.elapsed();
+            let (nodes, visits) = o.stats();
+            let stencil = points.iter().map(|x| o.weights(x).len()).max().unwrap();
+            println!(
+                "oracle timing {name}: spline_value at 20 points in {:.1} ms, {nodes} nodes, {visits} memo misses, stencil <= {stencil}",
+                el.as_secs_f64() * 1e3
+            );
+        }
+    }
+}

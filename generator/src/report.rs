@@ -1,0 +1,231 @@
+//! The inspect report: one serialisable value per filter (JSON) and a
+//! readable text rendering of it.
+
+use crate::arrangement::KnotFamily;
+use crate::derive::Derivation;
+use crate::exact::Q;
+use crate::linalg::{IVec, QVec};
+use serde::Serialize;
+use std::fmt::Write;
+
+#[derive(Serialize)]
+pub struct Report {
+    pub name: String,
+    pub description: String,
+    pub dimension: usize,
+    pub lattice: String,
+    pub lattice_generators: Vec<IVec>,
+    pub lattice_det: i64,
+    pub directions: Vec<IVec>,
+    pub degree: usize,
+    pub approximation_order: usize,
+    pub continuity: i64,
+    pub support_volume: i64,
+    pub knot_planes: Vec<KnotFamily>,
+    pub grid_offset: QVec,
+    pub cube_classes: usize,
+    pub cube_class_corners: Vec<IVec>,
+    pub cells_per_fundamental_domain: usize,
+    pub polynomial_pieces_per_fundamental_domain: usize,
+    pub symmetry_order: usize,
+    pub reference_pieces: Vec<ReferenceReport>,
+    pub max_stencil_size: usize,
+    pub prefilter: Vec<Weight>,
+    pub prefilter_shells: usize,
+    pub cells: Vec<CellReport>,
+}
+
+#[derive(Serialize)]
+pub struct Weight {
+    pub offset: IVec,
+    pub w: Q,
+}
+
+#[derive(Serialize)]
+pub struct BbCoefficient {
+    pub index: Vec<u32>,
+    pub weights: Vec<Weight>,
+}
+
+#[derive(Serialize)]
+pub struct Monomial {
+    pub exponent: Vec<u32>,
+    pub c: Q,
+}
+
+#[derive(Serialize)]
+pub struct PowerPiece {
+    pub offset: IVec,
+    pub terms: Vec<Monomial>,
+}
+
+#[derive(Serialize)]
+pub struct ReferenceReport {
+    pub corner: IVec,
+    pub vertices: Vec<QVec>,
+    pub is_simplex: bool,
+    pub cells_in_orbit: usize,
+    pub stencil: Vec<IVec>,
+    pub bb: Vec<BbCoefficient>,
+    /// Power form in local coordinates u = x - o - corner, per stencil offset.
+    pub power: Vec<PowerPiece>,
+}
+
+#[derive(Serialize)]
+pub struct CellReport {
+    pub class: usize,
+    pub vertices: Vec<QVec>,
+    pub reference: usize,
+    pub rotation: Vec<IVec>,
+    pub translation: IVec,
+}
+
+impl Report {
+    pub fn new(d: &Derivation) -> Report {
+        let f = &d.filter;
+        let arr = &d.arrangement;
+        Report {
+            name: f.name.clone(),
+            description: f.description.clone(),
+            dimension: f.dim(),
+            lattice: f.lattice.name.clone(),
+            lattice_generators: f.lattice.generators.clone(),
+            lattice_det: f.lattice.det(),
+            directions: f.directions.clone(),
+            degree: d.facts.degree,
+            approximation_order: d.facts.approximation_order,
+            continuity: d.facts.continuity,
+            support_volume: d.facts.support_volume,
+            knot_planes: arr.families.clone(),
+            grid_offset: arr.grid_offset.clone(),
+            cube_classes: arr.classes.len(),
+            cube_class_corners: arr.classes.clone(),
+            cells_per_fundamental_domain: arr.cells.len(),
+            polynomial_pieces_per_fundamental_domain: arr.pieces_per_fundamental_domain,
+            symmetry_order: d.group.len(),
+            reference_pieces: d
+                .references
+                .iter()
+                .enumerate()
+                .map(|(ri, r)| ReferenceReport {
+                    corner: r.corner.clone(),
+                    vertices: r.vertices.clone(),
+                    is_simplex: r.is_simplex,
+                    cells_in_orbit: d.maps.iter().filter(|m| m.reference == ri).count(),
+                    stencil: r.stencil.clone(),
+                    bb: r
+                        .bb
+                        .as_ref()
+                        .map(|bb| {
+                            bb.indices
+                                .iter()
+                                .zip(&bb.weights)
+                                .map(|(a, ws)| BbCoefficient {
+                                    index: a.clone(),
+                                    weights: r
+                                        .stencil
+                                        .iter()
+                                        .zip(ws)
+                                        .filter(|(_, w)| !w.is_zero())
+                                        .map(|(k, w)| Weight { offset: k.clone(), w: w.clone() })
+                                        .collect(),
+                                })
+                                .collect()
+                        })
+                        .unwrap_or_default(),
+                    power: r
+                        .stencil
+                        .iter()
+                        .zip(&r.polys)
+                        .map(|(k, p)| PowerPiece {
+                            offset: k.clone(),
+                            terms: p
+                                .basis
+                                .exps
+                                .iter()
+                                .zip(&p.coeffs)
+                                .filter(|(_, c)| !c.is_zero())
+                                .map(|(e, c)| Monomial { exponent: e.clone(), c: c.clone() })
+                                .collect(),
+                        })
+                        .collect(),
+                })
+                .collect(),
+            max_stencil_size: d.max_stencil(),
+            prefilter: d.prefilter.taps.iter().map(|(j, w)| Weight { offset: j.clone(), w: w.clone() }).collect(),
+            prefilter_shells: d.prefilter.shells,
+            cells: arr
+                .cells
+                .iter()
+                .zip(&d.maps)
+                .map(|(c, m)| CellReport {
+                    class: c.class,
+                    vertices: c.polytope.vertices.clone(),
+                    reference: m.reference,
+                    rotation: m.rotation.clone(),
+                    translation: m.translation.clone(),
+                })
+                .collect(),
+        }
+    }
+
+    /// Deterministic compact JSON (pretty printing makes bcc12 megabytes).
+    pub fn to_json(&self) -> String {
+        serde_json::to_string(self).expect("report serialises")
+    }
+
+    /// A readable summary for terminals.
+    pub fn to_text(&self) -> String {
+        let mut s = String::new();
+        let v = |q: &QVec| format!("({})", q.iter().map(|x| x.to_string()).collect::<Vec<_>>().join(", "));
+        let iv = |q: &IVec| format!("({})", q.iter().map(|x| x.to_string()).collect::<Vec<_>>().join(", "));
+        let _ = writeln!(s, "{} — {}", self.name, self.description);
+        let _ = writeln!(
+            s,
+            "  lattice           {} (|det G| = {}), dimension {}",
+            self.lattice, self.lattice_det, self.dimension
+        );
+        let _ = writeln!(s, "  directions        {}", self.directions.iter().map(iv).collect::<Vec<_>>().join(" "));
+        let _ = writeln!(
+            s,
+            "  degree {}, approximation order {}, continuity C^{}",
+            self.degree, self.approximation_order, self.continuity
+        );
+        let _ = writeln!(s, "  support volume    {}", self.support_volume);
+        let _ = writeln!(s, "  knot planes       {} families:", self.knot_planes.len());
+        for k in &self.knot_planes {
+            let _ = writeln!(s, "    n = {:<14} n.x in {} + {}Z", iv(&k.normal), k.offset, k.period);
+        }
+        let _ = writeln!(s, "  grid offset       {}", v(&self.grid_offset));
+        let _ = writeln!(
+            s,
+            "  cube classes      {}: {}",
+            self.cube_classes,
+            self.cube_class_corners.iter().map(iv).collect::<Vec<_>>().join(" ")
+        );
+        let _ = writeln!(s, "  evaluation cells  {} per fundamental domain", self.cells_per_fundamental_domain);
+        let _ =
+            writeln!(s, "  polynomial pieces {} per fundamental domain", self.polynomial_pieces_per_fundamental_domain);
+        let _ = writeln!(s, "  symmetry order    {}", self.symmetry_order);
+        let _ =
+            writeln!(s, "  reference pieces  {} (max stencil {})", self.reference_pieces.len(), self.max_stencil_size);
+        for (i, r) in self.reference_pieces.iter().enumerate() {
+            let _ = writeln!(
+                s,
+                "    #{i}: {} with {} vertices in cube {}, orbit of {} cells, stencil {}, {}",
+                if r.is_simplex { "simplex" } else { "polytope" },
+                r.vertices.len(),
+                iv(&r.corner),
+                r.cells_in_orbit,
+                r.stencil.len(),
+                if r.is_simplex { format!("{} BB coefficients", r.bb.len()) } else { "power form".to_string() }
+            );
+            let _ = writeln!(s, "        vertices: {}", r.vertices.iter().map(v).collect::<Vec<_>>().join(" "));
+        }
+        let _ = writeln!(s, "  prefilter         {} taps in {} shells:", self.prefilter.len(), self.prefilter_shells);
+        for w in &self.prefilter {
+            let _ = writeln!(s, "    {} {}", iv(&w.offset), w.w);
+        }
+        s
+    }
+}

@@ -1,0 +1,99 @@
+//! The `boxforge` binary: reports, JSON shape, determinism, bad input.
+
+use std::process::Command;
+
+fn boxforge(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_boxforge")).args(args).output().expect("run boxforge")
+}
+
+#[test]
+fn inspect_all_json_has_the_documented_keys_and_is_deterministic() {
+    let a = boxforge(&["inspect", "--all", "--json"]);
+    assert!(a.status.success(), "{}", String::from_utf8_lossy(&a.stderr));
+    let b = boxforge(&["inspect", "--all", "--json"]);
+    assert_eq!(a.stdout, b.stdout, "same input, same bytes");
+    let v: serde_json::Value = serde_json::from_slice(&a.stdout).unwrap();
+    let arr = v.as_array().unwrap();
+    assert!(arr.len() >= 10);
+    for f in arr {
+        for key in [
+            "name",
+            "dimension",
+            "lattice_det",
+            "degree",
+            "approximation_order",
+            "continuity",
+            "support_volume",
+            "knot_planes",
+            "grid_offset",
+            "cube_classes",
+            "cells_per_fundamental_domain",
+            "polynomial_pieces_per_fundamental_domain",
+            "symmetry_order",
+            "reference_pieces",
+            "max_stencil_size",
+            "prefilter",
+        ] {
+            assert!(f.get(key).is_some(), "{} lacks {key}", f["name"]);
+        }
+        for r in f["reference_pieces"].as_array().unwrap() {
+            for key in ["vertices", "is_simplex", "stencil", "bb"] {
+                assert!(r.get(key).is_some());
+            }
+        }
+        // Rationals are strings like "-1/24".
+        for w in f["prefilter"].as_array().unwrap() {
+            assert!(w["w"].is_string());
+        }
+    }
+    let bcc7 = arr.iter().find(|f| f["name"] == "bcc7").unwrap();
+    assert_eq!(bcc7["reference_pieces"][0]["stencil"].as_array().unwrap().len(), 30);
+    assert_eq!(bcc7["knot_planes"].as_array().unwrap().len(), 9);
+}
+
+#[test]
+fn inspect_one_filter_prints_text_and_json() {
+    let t = boxforge(&["inspect", "fcc6"]);
+    assert!(t.status.success());
+    let text = String::from_utf8(t.stdout).unwrap();
+    assert!(text.contains("fcc6") && text.contains("knot planes") && text.contains("prefilter"));
+    let j = boxforge(&["inspect", "zp", "--json"]);
+    let v: serde_json::Value = serde_json::from_slice(&j.stdout).unwrap();
+    assert_eq!(v["name"], "zp");
+    assert_eq!(v["grid_offset"][0], "1/2");
+}
+
+#[test]
+fn spec_files_work_and_bad_input_is_one_clear_line_with_exit_code_2() {
+    let dir = std::env::temp_dir().join(format!("boxforge-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let write = |name: &str, text: &str| {
+        let p = dir.join(name);
+        std::fs::write(&p, text).unwrap();
+        p.display().to_string()
+    };
+    let good = write("good.toml", "name = \"mine\"\nlattice = \"quincunx\"\ndirections = [[1,1],[1,-1],[2,0]]\n");
+    let out = boxforge(&["inspect", &good, "--json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let cases = [
+        (write("a.toml", "name = \"a\"\nlattice = \"bcc\"\ndirections = [[1,0,0],[0,2,0],[0,0,2]]\n"), "not a point of the bcc lattice"),
+        (write("b.toml", "name = \"b\"\nlattice = \"cc\"\ndirections = [[1,0,0],[2,0,0],[0,1,0]]\n"), "rank 2"),
+        (write("c.toml", "name = \"c\"\nlattice = \"cc\"\ndirections = [[1,0,0],[0,0.5,0],[0,0,1]]\n"), "non-integer"),
+        (write("d.toml", "name = \"d\"\nlattice = \"cc\"\ndirections = [[1,0,0],[0,1],[0,0,1]]\n"), "mixed dimensions"),
+        (write("e.toml", "name = \"e\"\nlattice = \"cc\"\ndirections = [[0,0,0],[1,0,0],[0,1,0],[0,0,1]]\n"), "zero vector"),
+        (write("f.toml", "name = \"f\"\nlattice = \"cc\"\ndirections = [[1,0,0],[0,1,0],[0,0,1],[1,0,0]]\n[caps]\nmax_degree = 0\n"), "exceeds the cap"),
+        (write("g.toml", "name = \"g\"\nlattice = \"cc\"\ndirections = [[1,0,0],[0,1,0],[0,0,1],[1,0,0],[0,1,0],[0,0,1]]\n[caps]\nmax_stencil = 4\n"), "over the cap"),
+        (write("h.toml", "name = \"h\"\nlattice = \"cc\"\ndirections = [[1,0,0]\n"), "malformed spec"),
+        (write("i.toml", "name = \"i\"\nlattice = { generators = [[1,1],[2,2]] }\ndirections = [[1,0],[0,1]]\n"), "singular"),
+        ("no_such_filter".to_string(), "unknown filter"),
+        (dir.join("missing.toml").display().to_string(), "cannot read"),
+    ];
+    for (arg, needle) in cases {
+        let out = boxforge(&["inspect", &arg]);
+        assert_eq!(out.status.code(), Some(2), "{arg}");
+        let err = String::from_utf8(out.stderr).unwrap();
+        assert_eq!(err.trim_end().lines().count(), 1, "one line for {arg}: {err}");
+        assert!(err.contains(needle), "{arg}: expected '{needle}' in: {err}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

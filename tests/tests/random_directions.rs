@@ -1,0 +1,68 @@
+//! Property tests: random valid direction matrices (2D and 3D, up to 7
+//! directions, entries in -2..=2) on every built-in lattice that contains
+//! them derive without error, form a partition of unity, and match the oracle.
+//! Raise the case count with PROPTEST_CASES.
+
+use boxforge::derive::Derivation;
+use boxforge::exact::Q;
+use boxforge::lattice::{Lattice, BUILTIN_LATTICES};
+use boxforge::oracle::Oracle;
+use boxforge::spec::{Caps, Filter};
+use boxforge_tests::{data_at, random_interior_point, Rng};
+use proptest::prelude::*;
+
+/// Non-zero lattice vectors with entries in -2..=2.
+fn lattice_vectors(l: &Lattice) -> Vec<Vec<i64>> {
+    let s = l.dim();
+    let mut out = Vec::new();
+    let mut v = vec![-2i64; s];
+    loop {
+        if v.iter().any(|&x| x != 0) && l.contains(&v) {
+            out.push(v.clone());
+        }
+        let mut k = 0;
+        loop {
+            if k == s {
+                return out;
+            }
+            v[k] += 1;
+            if v[k] <= 2 {
+                break;
+            }
+            v[k] = -2;
+            k += 1;
+        }
+    }
+}
+
+fn filter_strategy() -> impl Strategy<Value = Filter> {
+    prop::sample::select(BUILTIN_LATTICES.to_vec()).prop_flat_map(|name| {
+        let l = Lattice::builtin(name).unwrap();
+        let s = l.dim();
+        let vs = lattice_vectors(&l);
+        prop::collection::vec(prop::sample::select(vs), s..=7).prop_filter_map("directions must span", move |dirs| {
+            Filter::new("random", "", l.clone(), dirs, Caps::default()).ok()
+        })
+    })
+}
+
+fn cases() -> u32 {
+    std::env::var("PROPTEST_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(24)
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: cases(), max_shrink_iters: 64, ..ProptestConfig::default() })]
+
+    #[test]
+    fn random_direction_matrices_derive_and_agree(filter in filter_strategy(), seed in any::<u64>()) {
+        let d = Derivation::new(&filter).map_err(|e| TestCaseError::fail(format!("{:?}: {e}", filter.directions)))?;
+        let mut oracle = Oracle::new(&filter);
+        let mut rng = Rng(seed);
+        let data = |j: &[i64]| Q::int(data_at(seed, j));
+        for _ in 0..6 {
+            let x = random_interior_point(&d, &mut rng);
+            prop_assert_eq!(d.eval_exact(&x, &|_| Q::one()), Q::one(), "partition of unity for {:?}", &filter.directions);
+            prop_assert_eq!(d.eval_exact(&x, &data), oracle.spline_value(&x, &data), "oracle for {:?}", &filter.directions);
+        }
+    }
+}
