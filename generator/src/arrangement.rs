@@ -95,20 +95,16 @@ impl Arrangement {
         let mut cells = Vec::new();
         for (ci, z) in classes.iter().enumerate() {
             let lo: QVec = (0..s).map(|i| &grid_offset[i] + &Q::int(z[i])).collect();
-            let mut parts = vec![Polytope::unit_cube(&lo)];
+            let mut planes: Vec<(QVec, Q)> = Vec::new();
             for f in &families {
                 let nq = to_q(&f.normal);
-                let corner_vals = cube_range(&f.normal, &lo);
-                for v in f.values_between(&corner_vals.0, &corner_vals.1) {
-                    parts = parts
-                        .into_iter()
-                        .flat_map(|p| match p.split(&nq, &v) {
-                            Some((a, b)) => vec![a, b],
-                            None => vec![p],
-                        })
-                        .collect();
+                let (lo_v, hi_v) = cube_range(&f.normal, &lo);
+                for v in f.values_between(&lo_v, &hi_v) {
+                    planes.push((nq.clone(), v));
                 }
             }
+            let mut parts = Vec::new();
+            cut_recursively(Polytope::unit_cube(&lo), &planes, &mut parts);
             let mut class_cells: Vec<Cell> =
                 parts.into_iter().map(|p| Cell { class: ci, interior: p.centroid(), polytope: p }).collect();
             class_cells.sort_by(|a, b| a.polytope.vertices.cmp(&b.polytope.vertices));
@@ -145,10 +141,19 @@ impl Arrangement {
             p[i] = r;
             r
         }
-        // Index cells by (class, sorted vertex list) for lookup of translates.
-        let mut by_vertices: HashMap<Vec<QVec>, usize> = HashMap::new();
-        for (i, c) in self.cells.iter().enumerate() {
-            by_vertices.insert(c.polytope.vertices.clone(), i);
+        // Every cell face on its cube's boundary, by (class, sorted face vertices).
+        let mut faces: HashMap<(usize, Vec<QVec>), usize> = HashMap::new();
+        for (i, cell) in self.cells.iter().enumerate() {
+            let z = &self.classes[cell.class];
+            for axis in 0..s {
+                for upper in [false, true] {
+                    let plane = &(&self.grid_offset[axis] + &Q::int(z[axis])) + &Q::int(upper as i64);
+                    let face: Vec<QVec> = cell.polytope.vertices.iter().filter(|v| v[axis] == plane).cloned().collect();
+                    if face.len() >= s {
+                        faces.insert((cell.class, face), i);
+                    }
+                }
+            }
         }
         let facet_key = |verts: &[QVec]| {
             let mut v = verts.to_vec();
@@ -179,13 +184,7 @@ impl Arrangement {
                     let (nci, l) = self.locate_cube(lattice, &nz);
                     let shift = to_q(&l);
                     let key = facet_key(&face.iter().map(|v| crate::linalg::sub_q(v, &shift)).collect::<Vec<_>>());
-                    let neighbour = self.cells.iter().enumerate().find(|(_, c)| {
-                        c.class == nci && {
-                            let f: Vec<QVec> =
-                                c.polytope.vertices.iter().filter(|v| key.contains(v)).cloned().collect();
-                            f.len() == key.len()
-                        }
-                    });
+                    let neighbour = faces.get(&(nci, key)).map(|&j| (j, ()));
                     if let Some((j, _)) = neighbour {
                         let (a, b) = (find(&mut parent, i), find(&mut parent, j));
                         parent[a.max(b)] = a.min(b);
@@ -195,6 +194,24 @@ impl Arrangement {
         }
         (0..self.cells.len()).filter(|&i| find(&mut parent, i) == i).count()
     }
+}
+
+/// Cuts `p` by every plane that crosses it. Each level keeps only the planes
+/// that still cut the part and splits by the middle one, so the work follows
+/// the size of the final arrangement rather than planes x parts.
+fn cut_recursively(p: Polytope, planes: &[(QVec, Q)], out: &mut Vec<Polytope>) {
+    let relevant: Vec<&(QVec, Q)> = planes.iter().filter(|(n, a)| p.is_cut_by(n, a)).collect();
+    if relevant.is_empty() {
+        out.push(p);
+        return;
+    }
+    let mid = relevant.len() / 2;
+    let (n, a) = relevant[mid];
+    let (lo, hi) = p.split(n, a).expect("a relevant plane cuts");
+    let rest: Vec<(QVec, Q)> =
+        relevant.iter().enumerate().filter(|(i, _)| *i != mid).map(|(_, x)| (*x).clone()).collect();
+    cut_recursively(lo, &rest, out);
+    cut_recursively(hi, &rest, out);
 }
 
 /// min and max of n.x over the unit cube lo + [0,1]^s.

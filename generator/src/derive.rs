@@ -6,7 +6,8 @@ use crate::arrangement::Arrangement;
 use crate::bb::BbForm;
 use crate::error::{Error, Result};
 use crate::exact::Q;
-use crate::linalg::{mat_vec_i, mat_vec_q, sub_i, sub_q, to_q, IVec, QVec};
+use crate::lattice::Lattice;
+use crate::linalg::{dot_iq, mat_vec_i, mat_vec_q, sub_i, sub_q, to_q, IVec, QVec};
 use crate::pieces::PpForm;
 use crate::poly::Poly;
 use crate::prefilter::{derive_prefilter, Prefilter};
@@ -14,6 +15,7 @@ use crate::spec::Filter;
 use crate::spline::SplineFacts;
 use crate::symmetry::{point_group, SignedPerm};
 use std::collections::HashMap;
+use std::sync::OnceLock;
 
 /// g(x) = R x + t maps a cell onto its reference cell.
 #[derive(Clone, Debug)]
@@ -50,6 +52,14 @@ pub struct ReferencePiece {
     pub is_simplex: bool,
     /// Lattice points relative to `corner` whose basis function is non-zero here.
     pub stencil: Vec<IVec>,
+    /// Polynomial and BB forms, derived on first use: a filter with tens of
+    /// thousands of cells can be located and inspected without deriving all.
+    forms: OnceLock<Forms>,
+}
+
+/// The exact forms of one reference piece.
+#[derive(Clone, Debug)]
+pub struct Forms {
     /// P_k(u) = phi(o + corner + u - (corner + k)) for each stencil offset k,
     /// in local coordinates u = x - o - corner.
     pub polys: Vec<Poly>,
@@ -82,6 +92,9 @@ impl Derivation {
             return Err(Error::StencilCap { size: estimate, cap: filter.caps.max_stencil });
         }
         let arrangement = Arrangement::new(&facts, lattice);
+        if arrangement.cells.len() > filter.caps.max_cells {
+            return Err(Error::CellCap { cells: arrangement.cells.len(), cap: filter.caps.max_cells });
+        }
         let o = &arrangement.grid_offset;
         let group: Vec<SignedPerm> = point_group(filter)
             .into_iter()
@@ -92,18 +105,18 @@ impl Derivation {
             .collect();
         let pp = PpForm::new(&facts, lattice.det());
         let maps = cell_maps(&arrangement, lattice, &group);
-        let max_stencil =
-            arrangement.cells.iter().map(|c| stencil_points(&facts, lattice, &c.interior).len()).max().unwrap_or(0);
-        if max_stencil > filter.caps.max_stencil {
-            return Err(Error::StencilCap { size: max_stencil, cap: filter.caps.max_stencil });
-        }
         let mut references = Vec::new();
         let mut ref_of_cell: HashMap<usize, usize> = HashMap::new();
         for (i, m) in maps.iter().enumerate() {
             if m.reference == i {
                 ref_of_cell.insert(i, references.len());
-                references.push(reference_piece(&arrangement, &facts, lattice, &pp, i));
+                references.push(reference_piece(&arrangement, &facts, lattice, i));
             }
+        }
+        // Every cell of an orbit has its reference's stencil size.
+        let max_stencil = references.iter().map(|r| r.stencil.len()).max().unwrap_or(0);
+        if max_stencil > filter.caps.max_stencil {
+            return Err(Error::StencilCap { size: max_stencil, cap: filter.caps.max_stencil });
         }
         let maps = maps.into_iter().map(|m| CellMap { reference: ref_of_cell[&m.reference], ..m }).collect();
         let prefilter = derive_prefilter(filter, &group, facts.approximation_order)?;
@@ -120,6 +133,30 @@ impl Derivation {
         })
     }
 
+    /// The polynomial (and BB) forms of reference piece `ri`, derived once.
+    pub fn forms(&self, ri: usize) -> &Forms {
+        let r = &self.references[ri];
+        r.forms.get_or_init(|| {
+            let c = &self.arrangement.cells[r.cell];
+            let origin = self.cube_origin(&r.corner);
+            let polys: Vec<Poly> = r
+                .stencil
+                .iter()
+                .map(|k| self.pp.local_piece(&origin, &c.interior, &crate::linalg::add_i(&r.corner, k)))
+                .collect();
+            let bb = r.is_simplex.then(|| {
+                let local: Vec<QVec> = r.vertices.iter().map(|v| sub_q(v, &origin)).collect();
+                BbForm::new(&local, &polys, self.facts.degree)
+            });
+            Forms { polys, bb }
+        })
+    }
+
+    /// o + z: the lower corner of the grid cube with integer corner z.
+    pub fn cube_origin(&self, z: &[i64]) -> QVec {
+        (0..z.len()).map(|i| &self.arrangement.grid_offset[i] + &Q::int(z[i])).collect()
+    }
+
     pub fn max_stencil(&self) -> usize {
         self.references.iter().map(|r| r.stencil.len()).max().unwrap_or(0)
     }
@@ -129,27 +166,44 @@ impl Derivation {
     pub fn cell_polys_direct(&self, cell: usize) -> (Vec<IVec>, Vec<Poly>) {
         let c = &self.arrangement.cells[cell];
         let z = self.arrangement.corner(cell);
-        let origin: QVec = (0..z.len()).map(|i| &self.arrangement.grid_offset[i] + &Q::int(z[i])).collect();
+        let origin = self.cube_origin(z);
         let pts = stencil_points(&self.facts, &self.filter.lattice, &c.interior);
         let polys = pts.iter().map(|j| self.pp.local_piece(&origin, &c.interior, j)).collect();
         (pts.iter().map(|j| sub_i(j, z)).collect(), polys)
     }
 }
 
-/// Lattice points j with x - j strictly inside the support of phi.
-pub fn stencil_points(facts: &SplineFacts, lattice: &crate::lattice::Lattice, x: &[Q]) -> Vec<IVec> {
+/// Lattice points j with x - j strictly inside the support of phi (x must be
+/// off the knot planes, e.g. a cell's interior point). The zonotope test runs
+/// in f64 and falls back to exact arithmetic near its boundary.
+pub fn stencil_points(facts: &SplineFacts, lattice: &Lattice, x: &[Q]) -> Vec<IVec> {
     let s = facts.dim;
     let half: Vec<Q> = (0..s).map(|i| Q::frac(facts.directions.iter().map(|d| d[i].abs()).sum(), 2)).collect();
     let lo: IVec = (0..s).map(|i| (&x[i] - &half[i]).floor_i64().unwrap()).collect();
     let hi: IVec = (0..s).map(|i| (&x[i] + &half[i]).floor_i64().unwrap() + 1).collect();
+    let planes: Vec<(&IVec, f64, f64)> =
+        facts.normals.iter().map(|n| (n, dot_iq(n, x).to_f64(), facts.support_half_width(n).to_f64())).collect();
     let mut out = Vec::new();
     let mut j = lo.clone();
     loop {
-        if lattice.contains(&j) {
-            let y: QVec = x.iter().zip(&j).map(|(a, b)| a - &Q::int(*b)).collect();
-            if facts.in_open_support(&y) {
-                out.push(j.clone());
+        let mut inside = true;
+        let mut unsure = false;
+        for (n, nx, h) in &planes {
+            let m = h - (nx - crate::linalg::dot_i(n, &j) as f64).abs();
+            if m < -1e-9 {
+                inside = false;
+                break;
             }
+            if m <= 1e-9 {
+                unsure = true;
+            }
+        }
+        if inside && unsure {
+            let y: QVec = x.iter().zip(&j).map(|(a, b)| a - &Q::int(*b)).collect();
+            inside = facts.in_open_support(&y);
+        }
+        if inside && lattice.contains(&j) {
+            out.push(j.clone());
         }
         let mut k = 0;
         loop {
@@ -166,34 +220,23 @@ pub fn stencil_points(facts: &SplineFacts, lattice: &crate::lattice::Lattice, x:
     }
 }
 
-fn reference_piece(
-    arr: &Arrangement,
-    facts: &SplineFacts,
-    lattice: &crate::lattice::Lattice,
-    pp: &PpForm,
-    cell: usize,
-) -> ReferencePiece {
+fn reference_piece(arr: &Arrangement, facts: &SplineFacts, lattice: &Lattice, cell: usize) -> ReferencePiece {
     let c = &arr.cells[cell];
     let z = arr.corner(cell).clone();
-    let origin: QVec = (0..z.len()).map(|i| &arr.grid_offset[i] + &Q::int(z[i])).collect();
     let pts = stencil_points(facts, lattice, &c.interior);
-    let polys: Vec<Poly> = pts.iter().map(|j| pp.local_piece(&origin, &c.interior, j)).collect();
-    let local_vertices: Vec<QVec> = c.polytope.vertices.iter().map(|v| sub_q(v, &origin)).collect();
-    let bb = if c.polytope.is_simplex() { Some(BbForm::new(&local_vertices, &polys, facts.degree)) } else { None };
     ReferencePiece {
         cell,
         stencil: pts.iter().map(|j| sub_i(j, &z)).collect(),
         corner: z,
         vertices: c.polytope.vertices.clone(),
         is_simplex: c.polytope.is_simplex(),
-        polys,
-        bb,
+        forms: OnceLock::new(),
     }
 }
 
 /// For each cell, the first (in group order) map onto the least cell of its
 /// orbit. `reference` holds a cell index here; the caller renumbers.
-fn cell_maps(arr: &Arrangement, lattice: &crate::lattice::Lattice, group: &[SignedPerm]) -> Vec<CellMap> {
+fn cell_maps(arr: &Arrangement, lattice: &Lattice, group: &[SignedPerm]) -> Vec<CellMap> {
     let s = arr.grid_offset.len();
     let index: HashMap<(usize, Vec<QVec>), usize> =
         arr.cells.iter().enumerate().map(|(i, c)| ((c.class, c.polytope.vertices.clone()), i)).collect();

@@ -36,6 +36,8 @@ pub enum Error {
     DegreeCap { degree: usize, cap: usize },
     #[error("the stencil would have up to {size} samples, over the cap of {cap}: use shorter directions or raise `caps.max_stencil` in the spec")]
     StencilCap { size: usize, cap: usize },
+    #[error("the knot planes cut the unit cubes into {cells} cells, over the cap of {cap}: use shorter or fewer directions, or raise `caps.max_cells` in the spec")]
+    CellCap { cells: usize, cap: usize },
     #[error(
         "no quasi-interpolation prefilter found within {shells} shells: raise the shell limit or check the filter"
     )]

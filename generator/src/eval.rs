@@ -50,8 +50,7 @@ impl Derivation {
     pub fn eval_exact(&self, x: &[Q], data: &dyn Fn(&[i64]) -> Q) -> Q {
         let loc = self.locate(x);
         let (ri, u, fetch) = self.reference_frame(x, &loc);
-        let r = &self.references[ri];
-        r.polys.iter().zip(&fetch).map(|(p, j)| data(j) * p.eval(&u)).sum()
+        self.forms(ri).polys.iter().zip(&fetch).map(|(p, j)| data(j) * p.eval(&u)).sum()
     }
 
     /// The same value through the BB form (de Casteljau-free direct sum) when
@@ -59,7 +58,7 @@ impl Derivation {
     pub fn eval_exact_bb(&self, x: &[Q], data: &dyn Fn(&[i64]) -> Q) -> Option<Q> {
         let loc = self.locate(x);
         let (ri, u, fetch) = self.reference_frame(x, &loc);
-        let bb = self.references[ri].bb.as_ref()?;
+        let bb = self.forms(ri).bb.as_ref()?;
         let c: QVec = fetch.iter().map(|j| data(j)).collect();
         Some(bb.eval(&bb.coefficients(&c), &bb.barycentric(&u)))
     }
@@ -96,7 +95,7 @@ impl Derivation {
             })
             .collect();
         let u: Vec<f64> = (0..s).map(|i| y[i] - t.offset[i] - r.corner[i] as f64).collect();
-        let tab = &t.references[map.reference];
+        let tab = self.f64_reference(map.reference);
         let mut value = 0.0;
         let mut grad_u = vec![0.0; s];
         for (k, off) in r.stencil.iter().enumerate() {
@@ -152,7 +151,8 @@ pub struct F64Tables {
     pub offset: Vec<f64>,
     /// Per cell: facets (normal, bound).
     pub cells: Vec<Vec<(Vec<f64>, f64)>>,
-    pub references: Vec<F64Reference>,
+    /// Per reference piece, filled on first use.
+    pub references: Vec<std::sync::OnceLock<F64Reference>>,
 }
 
 #[derive(Clone, Debug)]
@@ -178,14 +178,18 @@ impl Derivation {
                         .collect()
                 })
                 .collect(),
-            references: self
-                .references
-                .iter()
-                .map(|r| F64Reference {
-                    exps: r.polys.first().map(|p| p.basis.exps.clone()).unwrap_or_default(),
-                    coeffs: r.polys.iter().map(|p| p.coeffs.iter().map(|c| c.to_f64()).collect()).collect(),
-                })
-                .collect(),
+            references: self.references.iter().map(|_| std::sync::OnceLock::new()).collect(),
+        })
+    }
+
+    /// f64 coefficients of reference piece `ri`.
+    pub fn f64_reference(&self, ri: usize) -> &F64Reference {
+        self.f64_tables().references[ri].get_or_init(|| {
+            let polys = &self.forms(ri).polys;
+            F64Reference {
+                exps: polys.first().map(|p| p.basis.exps.clone()).unwrap_or_default(),
+                coeffs: polys.iter().map(|p| p.coeffs.iter().map(|c| c.to_f64()).collect()).collect(),
+            }
         })
     }
 }

@@ -26,6 +26,9 @@ pub struct Polytope {
     pub facets: Vec<HalfSpace>,
     /// Vertices, sorted.
     pub vertices: Vec<QVec>,
+    /// For each vertex, the bit set of facets tight at it (incidence), which
+    /// lets a split find edges combinatorially instead of re-enumerating.
+    incidence: Vec<u128>,
 }
 
 impl Polytope {
@@ -47,7 +50,8 @@ impl Polytope {
         self.vertices[0].len()
     }
 
-    /// Builds from half-spaces; None if the result is not full-dimensional.
+    /// Builds from half-spaces by vertex enumeration; None if the result is
+    /// not full-dimensional.
     pub fn from_halfspaces(hs: Vec<HalfSpace>) -> Option<Polytope> {
         let s = hs[0].normal.len();
         let mut verts: Vec<QVec> = Vec::new();
@@ -62,7 +66,6 @@ impl Polytope {
         if verts.len() <= s {
             return None;
         }
-        // Full-dimensional?
         let diffs: Vec<QVec> = verts[1..].iter().map(|v| sub_q(v, &verts[0])).collect();
         if rank(&diffs) < s {
             return None;
@@ -79,24 +82,101 @@ impl Polytope {
                 facets.push(h);
             }
         }
+        assert!(facets.len() <= 128, "too many facets for the incidence bit set");
         verts.sort();
-        Some(Polytope { facets, vertices: verts })
+        let incidence = verts
+            .iter()
+            .map(|v| {
+                facets.iter().enumerate().filter(|(_, f)| f.slack(v).is_zero()).fold(0u128, |m, (i, _)| m | 1 << i)
+            })
+            .collect();
+        Some(Polytope { facets, vertices: verts, incidence })
+    }
+
+    /// Does the plane n . x = a cut the interior?
+    pub fn is_cut_by(&self, normal: &[Q], a: &Q) -> bool {
+        let mut below = false;
+        let mut above = false;
+        for v in &self.vertices {
+            match dot_q(normal, v).cmp(a) {
+                std::cmp::Ordering::Less => below = true,
+                std::cmp::Ordering::Greater => above = true,
+                _ => {}
+            }
+            if below && above {
+                return true;
+            }
+        }
+        false
     }
 
     /// Splits by n . x = a into the parts with n . x <= a and >= a; returns
     /// None when the plane does not cut the interior.
     pub fn split(&self, normal: &[Q], a: &Q) -> Option<(Polytope, Polytope)> {
-        let vals: Vec<Q> = self.vertices.iter().map(|v| dot_q(normal, v)).collect();
-        let below = vals.iter().any(|v| v < a);
-        let above = vals.iter().any(|v| v > a);
-        if !(below && above) {
+        let vals: Vec<Q> = self.vertices.iter().map(|v| &dot_q(normal, v) - a).collect();
+        if !(vals.iter().any(|v| v.is_negative()) && vals.iter().any(|v| v.is_positive())) {
             return None;
         }
-        let mut lo = self.facets.clone();
-        lo.push(HalfSpace { normal: normal.to_vec(), bound: a.clone() });
-        let mut hi = self.facets.clone();
-        hi.push(HalfSpace { normal: normal.iter().map(|x| -x).collect(), bound: -a.clone() });
-        Some((Polytope::from_halfspaces(lo)?, Polytope::from_halfspaces(hi)?))
+        let s = self.dim();
+        // Edges crossing the plane: u < 0 < v, joined by an edge when their
+        // common facets (>= s-1 of them) are tight at no other vertex.
+        let mut cuts: Vec<(QVec, u128)> = Vec::new();
+        for i in 0..self.vertices.len() {
+            if !vals[i].is_negative() {
+                continue;
+            }
+            for j in 0..self.vertices.len() {
+                if !vals[j].is_positive() {
+                    continue;
+                }
+                let common = self.incidence[i] & self.incidence[j];
+                if (common.count_ones() as usize) < s - 1 {
+                    continue;
+                }
+                let other = (0..self.vertices.len()).any(|k| k != i && k != j && self.incidence[k] & common == common);
+                if other {
+                    continue;
+                }
+                let t = &vals[i] / &(&vals[i] - &vals[j]);
+                let x: QVec =
+                    self.vertices[i].iter().zip(&self.vertices[j]).map(|(a, b)| a + &(&t * &(b - a))).collect();
+                cuts.push((x, common));
+            }
+        }
+        let new_bit = 1u128 << self.facets.len();
+        let part = |keep_negative: bool| -> Polytope {
+            let mut verts: Vec<(QVec, u128)> = Vec::new();
+            for (i, v) in self.vertices.iter().enumerate() {
+                let on = vals[i].is_zero();
+                if on || vals[i].is_negative() == keep_negative {
+                    verts.push((v.clone(), self.incidence[i] | if on { new_bit } else { 0 }));
+                }
+            }
+            verts.extend(cuts.iter().map(|(x, c)| (x.clone(), c | new_bit)));
+            let mut facets = self.facets.clone();
+            facets.push(if keep_negative {
+                HalfSpace { normal: normal.to_vec(), bound: a.clone() }
+            } else {
+                HalfSpace { normal: normal.iter().map(|x| -x).collect(), bound: -a.clone() }
+            });
+            Polytope::compact(facets, verts, s)
+        };
+        Some((part(true), part(false)))
+    }
+
+    /// Drops facets tight at fewer than s vertices, renumbers incidence bits,
+    /// sorts vertices.
+    fn compact(facets: Vec<HalfSpace>, mut verts: Vec<(QVec, u128)>, s: usize) -> Polytope {
+        let keep: Vec<usize> =
+            (0..facets.len()).filter(|&f| verts.iter().filter(|(_, m)| m >> f & 1 == 1).count() >= s).collect();
+        assert!(keep.len() < 128, "too many facets for the incidence bit set");
+        for (_, m) in verts.iter_mut() {
+            *m = keep.iter().enumerate().fold(0u128, |acc, (new, &old)| acc | ((*m >> old & 1) << new));
+        }
+        verts.sort_by(|a, b| a.0.cmp(&b.0));
+        let facets = keep.iter().map(|&f| facets[f].clone()).collect();
+        let (vertices, incidence) = verts.into_iter().unzip();
+        Polytope { facets, vertices, incidence }
     }
 
     /// Vertex average: a point strictly inside.

@@ -113,7 +113,8 @@ impl Report {
                     is_simplex: r.is_simplex,
                     cells_in_orbit: d.maps.iter().filter(|m| m.reference == ri).count(),
                     stencil: r.stencil.clone(),
-                    bb: r
+                    bb: d
+                        .forms(ri)
                         .bb
                         .as_ref()
                         .map(|bb| {
@@ -136,7 +137,7 @@ impl Report {
                     power: r
                         .stencil
                         .iter()
-                        .zip(&r.polys)
+                        .zip(&d.forms(ri).polys)
                         .map(|(k, p)| PowerPiece {
                             offset: k.clone(),
                             terms: p

@@ -22,11 +22,13 @@ pub struct Caps {
     pub max_directions: usize,
     pub max_degree: usize,
     pub max_stencil: usize,
+    /// Evaluation cells per fundamental domain.
+    pub max_cells: usize,
 }
 
 impl Default for Caps {
     fn default() -> Caps {
-        Caps { max_directions: 16, max_degree: 12, max_stencil: 512 }
+        Caps { max_directions: 16, max_degree: 12, max_stencil: 512, max_cells: 100_000 }
     }
 }
 
