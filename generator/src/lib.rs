@@ -14,6 +14,7 @@ pub mod exact;
 pub mod lattice;
 pub mod linalg;
 pub mod oracle;
+pub mod output;
 pub mod pieces;
 pub mod poly;
 pub mod polytope;

@@ -175,6 +175,109 @@ impl Report {
         serde_json::to_string(self).expect("report serialises")
     }
 
+    /// JSON with a leading `generated_by` key naming the command.
+    pub fn to_json_with_header(&self, command: &str) -> String {
+        let body = self.to_json();
+        format!("{{\"generated_by\":{},{}", serde_json::to_string(command).unwrap(), &body[1..])
+    }
+
+    /// A Markdown rendering for humans (checked into shaders-out/).
+    pub fn to_markdown(&self) -> String {
+        let mut s = String::new();
+        let v = |q: &QVec| format!("({})", q.iter().map(|x| x.to_string()).collect::<Vec<_>>().join(", "));
+        let iv = |q: &IVec| format!("({})", q.iter().map(|x| x.to_string()).collect::<Vec<_>>().join(", "));
+        let _ = writeln!(s, "# {}\n\n{}\n", self.name, self.description);
+        let _ = writeln!(s, "| fact | value |\n|---|---|");
+        let rows = [
+            (
+                "lattice",
+                format!(
+                    "{} (generators {}, \\|det G\\| = {})",
+                    self.lattice,
+                    self.lattice_generators.iter().map(iv).collect::<Vec<_>>().join(" "),
+                    self.lattice_det
+                ),
+            ),
+            ("directions", self.directions.iter().map(iv).collect::<Vec<_>>().join(" ")),
+            ("degree", self.degree.to_string()),
+            ("approximation order", self.approximation_order.to_string()),
+            ("continuity", format!("C^{}", self.continuity)),
+            ("support volume", self.support_volume.to_string()),
+            ("grid offset", v(&self.grid_offset)),
+            (
+                "cube classes",
+                format!(
+                    "{}: {}",
+                    self.cube_classes,
+                    self.cube_class_corners.iter().map(iv).collect::<Vec<_>>().join(" ")
+                ),
+            ),
+            ("evaluation cells per fundamental domain", self.cells_per_fundamental_domain.to_string()),
+            ("polynomial pieces per fundamental domain", self.polynomial_pieces_per_fundamental_domain.to_string()),
+            ("symmetry order", self.symmetry_order.to_string()),
+            ("reference pieces", self.reference_pieces.len().to_string()),
+            ("max stencil", self.max_stencil_size.to_string()),
+        ];
+        for (k, val) in rows {
+            let _ = writeln!(s, "| {k} | {val} |");
+        }
+        let _ = writeln!(s, "\n## Knot planes\n\n| normal n | n.x in |\n|---|---|");
+        for k in &self.knot_planes {
+            let _ = writeln!(s, "| {} | {} + {}Z |", iv(&k.normal), k.offset, k.period);
+        }
+        let _ = writeln!(s, "\n## Cells and their maps g(x) = R x + t onto reference pieces\n");
+        let _ = writeln!(s, "| cell | class | vertices | reference | R (rows) | t |\n|---|---|---|---|---|---|");
+        for (i, c) in self.cells.iter().enumerate().take(200) {
+            let _ = writeln!(
+                s,
+                "| {i} | {} | {} | {} | {} | {} |",
+                c.class,
+                c.vertices.iter().map(v).collect::<Vec<_>>().join(" "),
+                c.reference,
+                c.rotation.iter().map(iv).collect::<Vec<_>>().join(" "),
+                iv(&c.translation)
+            );
+        }
+        if self.cells.len() > 200 {
+            let _ = writeln!(s, "\n({} more cells in the JSON report)", self.cells.len() - 200);
+        }
+        for (i, r) in self.reference_pieces.iter().enumerate() {
+            let _ = writeln!(s, "\n## Reference piece {i}\n");
+            let _ = writeln!(
+                s,
+                "{} in the cube with corner {}, orbit of {} cells.\n\nVertices: {}\n",
+                if r.is_simplex { "Simplex" } else { "Polytope" },
+                iv(&r.corner),
+                r.cells_in_orbit,
+                r.vertices.iter().map(v).collect::<Vec<_>>().join(" ")
+            );
+            let _ = writeln!(s, "Stencil ({} samples, offsets from the cube corner):\n", r.stencil.len());
+            for k in &r.stencil {
+                let _ = writeln!(s, "- {}", iv(k));
+            }
+            if r.is_simplex {
+                let _ = writeln!(s, "\nBB coefficients b_alpha = sum w c(offset):\n\n| alpha | weights |\n|---|---|");
+                for b in &r.bb {
+                    let ws: Vec<String> = b.weights.iter().map(|w| format!("{} c{}", w.w, iv(&w.offset))).collect();
+                    let idx: Vec<String> = b.index.iter().map(|x| x.to_string()).collect();
+                    let _ = writeln!(s, "| {} | {} |", idx.join(""), ws.join(" + "));
+                }
+            } else {
+                let _ = writeln!(s, "\nNot a simplex: the power form (in the JSON report) is used.");
+            }
+        }
+        let _ = writeln!(
+            s,
+            "\n## Quasi-interpolation prefilter\n\n{} taps in {} shells.\n\n| offset | weight |\n|---|---|",
+            self.prefilter.len(),
+            self.prefilter_shells
+        );
+        for w in &self.prefilter {
+            let _ = writeln!(s, "| {} | {} |", iv(&w.offset), w.w);
+        }
+        s
+    }
+
     /// A readable summary for terminals.
     pub fn to_text(&self) -> String {
         let mut s = String::new();

@@ -28,6 +28,20 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Derive filters and write their reports (JSON + Markdown) into a directory.
+    Generate {
+        /// Catalog names or paths to .toml spec files.
+        filters: Vec<String>,
+        /// Every catalog filter.
+        #[arg(long)]
+        all: bool,
+        /// Output directory.
+        #[arg(short, long)]
+        out: std::path::PathBuf,
+        /// Do not write: exit 1 if any file in the directory differs (stale).
+        #[arg(long)]
+        check: bool,
+    },
     /// List the built-in catalog.
     List,
 }
@@ -61,22 +75,41 @@ fn run(cli: Cli) -> Result<(), Failure> {
             }
             Ok(())
         }
-        Command::Inspect { filters, all, json } => {
-            let names: Vec<String> = if all {
-                if !filters.is_empty() {
-                    return Err(Failure("give either --all or filter names, not both".into()));
-                }
-                spec::catalog::names().into_iter().map(String::from).collect()
-            } else if filters.is_empty() {
-                return Err(Failure(format!(
-                    "name a filter (one of {}) or a spec file, or pass --all",
-                    spec::catalog::names().join(", ")
-                )));
-            } else {
-                filters
-            };
+        Command::Generate { filters, all, out, check } => {
+            let names = filter_names(filters.clone(), all)?;
             let resolved = names.iter().map(|n| spec::resolve(n)).collect::<Result<Vec<_>, _>>()?;
-            let reports = derive_all(&resolved)?;
+            let what = if all { "--all".to_string() } else { filters.join(" ") };
+            let command = format!("boxforge generate {what} -o {}", out.display());
+            let started = std::time::Instant::now();
+            let derivations = derive_all(&resolved, |d| d)?;
+            let mut stale = Vec::new();
+            for d in &derivations {
+                let files = boxforge::output::report_files(d, &command);
+                if check {
+                    for (name, text) in &files {
+                        if std::fs::read_to_string(out.join(name)).ok().as_deref() != Some(text.as_str()) {
+                            stale.push(out.join(name).display().to_string());
+                        }
+                    }
+                } else {
+                    let written = boxforge::output::write_files(&out, &files)?;
+                    let list: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
+                    eprintln!("{:<16} {}", d.filter.name, list.join(", "));
+                }
+            }
+            if check && !stale.is_empty() {
+                return Err(Failure(format!(
+                    "stale generated files: {}; run `{command}` to refresh",
+                    stale.join(", ")
+                )));
+            }
+            eprintln!("{} filters in {:.2} s", derivations.len(), started.elapsed().as_secs_f64());
+            Ok(())
+        }
+        Command::Inspect { filters, all, json } => {
+            let names = filter_names(filters, all)?;
+            let resolved = names.iter().map(|n| spec::resolve(n)).collect::<Result<Vec<_>, _>>()?;
+            let reports = derive_all(&resolved, |d| Report::new(&d))?;
             if json {
                 if reports.len() == 1 && !all {
                     println!("{}", reports[0].to_json());
@@ -94,11 +127,28 @@ fn run(cli: Cli) -> Result<(), Failure> {
     }
 }
 
-/// Derives filters in parallel (one thread per filter, bounded by the cores).
-fn derive_all(filters: &[boxforge::Filter]) -> Result<Vec<Report>, Failure> {
+/// The filters named on the command line, or the catalog with --all.
+fn filter_names(filters: Vec<String>, all: bool) -> Result<Vec<String>, Failure> {
+    if all {
+        if !filters.is_empty() {
+            return Err(Failure("give either --all or filter names, not both".into()));
+        }
+        Ok(spec::catalog::names().into_iter().map(String::from).collect())
+    } else if filters.is_empty() {
+        Err(Failure(format!(
+            "name a filter (one of {}) or a spec file, or pass --all",
+            spec::catalog::names().join(", ")
+        )))
+    } else {
+        Ok(filters)
+    }
+}
+
+/// Derives filters in parallel (a worker per core), mapping each result.
+fn derive_all<T: Send>(filters: &[boxforge::Filter], map: impl Fn(Derivation) -> T + Sync) -> Result<Vec<T>, Failure> {
     let threads = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1).max(1);
     let next = std::sync::atomic::AtomicUsize::new(0);
-    let results: Vec<std::sync::Mutex<Option<Result<Report, Failure>>>> =
+    let results: Vec<std::sync::Mutex<Option<Result<T, Failure>>>> =
         filters.iter().map(|_| std::sync::Mutex::new(None)).collect();
     std::thread::scope(|scope| {
         for _ in 0..threads.min(filters.len()) {
@@ -107,7 +157,7 @@ fn derive_all(filters: &[boxforge::Filter]) -> Result<Vec<Report>, Failure> {
                 if i >= filters.len() {
                     break;
                 }
-                let r = Derivation::new(&filters[i]).map(|d| Report::new(&d)).map_err(Failure::from);
+                let r = Derivation::new(&filters[i]).map(&map).map_err(Failure::from);
                 *results[i].lock().unwrap() = Some(r);
             });
         }
