@@ -83,6 +83,12 @@ impl Lattice {
         x
     }
 
+    /// The lower-triangular Hermite basis (columns), for shaders that reduce
+    /// cube corners to class representatives with integer arithmetic.
+    pub fn hermite_basis(&self) -> &[IVec] {
+        &self.hermite
+    }
+
     pub fn contains(&self, v: &[i64]) -> bool {
         self.reduce(v).iter().all(|&x| x == 0)
     }

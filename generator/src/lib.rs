@@ -8,14 +8,17 @@
 pub mod arrangement;
 pub mod bb;
 pub mod derive;
+pub mod emit;
 pub mod error;
 pub mod eval;
 pub mod exact;
+pub mod fetch_order;
 pub mod lattice;
 pub mod linalg;
 pub mod oracle;
 pub mod output;
 pub mod pieces;
+pub mod plan;
 pub mod poly;
 pub mod polytope;
 pub mod prefilter;
@@ -23,6 +26,7 @@ pub mod report;
 pub mod spec;
 pub mod spline;
 pub mod symmetry;
+pub mod validate;
 
 pub use error::{Error, Result};
 pub use spec::Filter;
