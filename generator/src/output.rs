@@ -2,6 +2,7 @@
 //! naming the command that made them, deterministically.
 
 use crate::derive::Derivation;
+use crate::emit::{emit, EmitOptions, EmitStats, Layout, Variant};
 use crate::error::{Error, Result};
 use crate::report::Report;
 use std::path::{Path, PathBuf};
@@ -17,9 +18,41 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     std::fs::rename(&tmp, path).map_err(|source| Error::Io { path: path.to_path_buf(), source })
 }
 
-/// The files generated for one filter: (file name, contents).
+/// The files generated for one filter: the WGSL modules for every requested
+/// (layout, variant), then the JSON and Markdown reports (with the shaders'
+/// counts): (file name, contents).
+pub fn generated_files(
+    d: &Derivation,
+    command: &str,
+    layouts: &[Layout],
+    variants: &[Variant],
+) -> Result<Vec<(String, String)>> {
+    let mut files = Vec::new();
+    let mut stats = Vec::new();
+    for &layout in layouts {
+        for &variant in variants {
+            let opts = EmitOptions { layout, variant, command: command.to_string(), ..EmitOptions::default() };
+            let e = emit(d, &opts)?;
+            stats.push(e.stats);
+            files.push((e.file_name, e.source));
+        }
+    }
+    files.extend(report_files_with(d, command, stats));
+    Ok(files)
+}
+
+/// Every layout and variant.
+pub const ALL_LAYOUTS: [Layout; 2] = [Layout::Embedded, Layout::Packed];
+pub const ALL_VARIANTS: [Variant; 2] = [Variant::Fast, Variant::Naive];
+
+/// The reports alone (no shaders).
 pub fn report_files(d: &Derivation, command: &str) -> Vec<(String, String)> {
-    let report = Report::new(d);
+    report_files_with(d, command, vec![])
+}
+
+fn report_files_with(d: &Derivation, command: &str, shaders: Vec<EmitStats>) -> Vec<(String, String)> {
+    let mut report = Report::new(d);
+    report.shaders = shaders;
     let name = &d.filter.name;
     let mut json = report.to_json_with_header(command);
     json.push('\n');

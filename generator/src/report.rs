@@ -33,6 +33,22 @@ pub struct Report {
     pub prefilter: Vec<Weight>,
     pub prefilter_shells: usize,
     pub cells: Vec<CellReport>,
+    /// How the fast shaders locate points, and their fetch order.
+    pub evaluation: EvaluationReport,
+    /// Counts of the emitted shaders (filled by `generate`).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub shaders: Vec<crate::emit::EmitStats>,
+}
+
+#[derive(Serialize)]
+pub struct EvaluationReport {
+    pub locate: String,
+    pub candidates: usize,
+    pub fetches_per_eval: usize,
+    pub vector_adds: usize,
+    pub matvec_adds: usize,
+    /// Fetch offsets q (x = b + M q, see `plan`) of the first candidate, in fetch order.
+    pub fetch_order: Vec<IVec>,
 }
 
 #[derive(Serialize)]
@@ -155,6 +171,18 @@ impl Report {
             max_stencil_size: d.max_stencil(),
             prefilter: d.prefilter.taps.iter().map(|(j, w)| Weight { offset: j.clone(), w: w.clone() }).collect(),
             prefilter_shells: d.prefilter.shells,
+            evaluation: {
+                let plan = crate::plan::Plan::new(d);
+                EvaluationReport {
+                    locate: format!("{:?}", plan.locate),
+                    candidates: plan.candidates.len(),
+                    fetches_per_eval: plan.fetches(),
+                    vector_adds: plan.vector_adds,
+                    matvec_adds: plan.matvec_adds,
+                    fetch_order: plan.candidates[0].offsets.clone(),
+                }
+            },
+            shaders: vec![],
             cells: arr
                 .cells
                 .iter()
@@ -265,6 +293,29 @@ impl Report {
             } else {
                 let _ = writeln!(s, "\nNot a simplex: the power form (in the JSON report) is used.");
             }
+        }
+        let e = &self.evaluation;
+        let _ = writeln!(
+            s,
+            "\n## Evaluation in the shaders\n\nPoint location: {}, {} candidate cell(s) after locating. {} fetches per evaluation; {} vector adds walk the fetch positions (a matrix-vector product per fetch would cost {}).\n\nFetch order (offsets q from the frame base, x = b + M q):\n",
+            e.locate, e.candidates, e.fetches_per_eval, e.vector_adds, e.matvec_adds
+        );
+        let _ = writeln!(s, "{}", e.fetch_order.iter().map(iv).collect::<Vec<_>>().join(" → "));
+        if !self.shaders.is_empty() {
+            let _ = writeln!(s, "\n| layout | variant | fetches/eval | vector adds | ops in eval | ops in eval_grad |\n|---|---|---|---|---|---|");
+            for st in &self.shaders {
+                let _ = writeln!(
+                    s,
+                    "| {} | {} | {} | {} | {} | {} |",
+                    st.layout.name(),
+                    st.variant.name(),
+                    st.fetches_per_eval,
+                    st.vector_adds,
+                    st.ops_eval,
+                    st.ops_eval_grad
+                );
+            }
+            let _ = writeln!(s, "\n(ops: operators, comparisons, selects and builtin calls in the WGSL source; the naive variant's loops are counted once.)");
         }
         let _ = writeln!(
             s,

@@ -2,6 +2,8 @@
 //! box-spline filters.
 
 use boxforge::derive::Derivation;
+use boxforge::emit::{Layout, Variant};
+use boxforge::output::{ALL_LAYOUTS, ALL_VARIANTS};
 use boxforge::report::Report;
 use boxforge::spec;
 use clap::{Parser, Subcommand};
@@ -28,7 +30,8 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
-    /// Derive filters and write their reports (JSON + Markdown) into a directory.
+    /// Derive filters and write their WGSL modules and reports (JSON +
+    /// Markdown) into a directory.
     Generate {
         /// Catalog names or paths to .toml spec files.
         filters: Vec<String>,
@@ -38,9 +41,26 @@ enum Command {
         /// Output directory.
         #[arg(short, long)]
         out: std::path::PathBuf,
+        /// Storage layout (default: both).
+        #[arg(long, value_parser = ["embedded", "packed"])]
+        layout: Option<String>,
+        /// Code variant (default: both).
+        #[arg(long, value_parser = ["fast", "naive"])]
+        variant: Option<String>,
         /// Do not write: exit 1 if any file in the directory differs (stale).
         #[arg(long)]
         check: bool,
+    },
+    /// Validate any WGSL file with naga and prove functions branch-free and
+    /// table-free (no if/switch/loop/discard, no dynamically indexed arrays).
+    Validate {
+        file: std::path::PathBuf,
+        /// Functions that must be branch-free (default: every function named
+        /// *_eval or *_eval_grad).
+        #[arg(long = "entry")]
+        entries: Vec<String>,
+        #[arg(long)]
+        json: bool,
     },
     /// List the built-in catalog.
     List,
@@ -75,16 +95,31 @@ fn run(cli: Cli) -> Result<(), Failure> {
             }
             Ok(())
         }
-        Command::Generate { filters, all, out, check } => {
+        Command::Validate { file, entries, json } => validate(&file, &entries, json),
+        Command::Generate { filters, all, out, layout, variant, check } => {
             let names = filter_names(filters.clone(), all)?;
             let resolved = names.iter().map(|n| spec::resolve(n)).collect::<Result<Vec<_>, _>>()?;
-            let what = if all { "--all".to_string() } else { filters.join(" ") };
+            let layouts: Vec<Layout> = match &layout {
+                Some(l) => vec![Layout::parse(l).expect("clap checked")],
+                None => ALL_LAYOUTS.to_vec(),
+            };
+            let variants: Vec<Variant> = match &variant {
+                Some(v) => vec![Variant::parse(v).expect("clap checked")],
+                None => ALL_VARIANTS.to_vec(),
+            };
+            let mut what = if all { "--all".to_string() } else { filters.join(" ") };
+            if let Some(l) = &layout {
+                what.push_str(&format!(" --layout {l}"));
+            }
+            if let Some(v) = &variant {
+                what.push_str(&format!(" --variant {v}"));
+            }
             let command = format!("boxforge generate {what} -o {}", out.display());
             let started = std::time::Instant::now();
             let derivations = derive_all(&resolved, |d| d)?;
             let mut stale = Vec::new();
             for d in &derivations {
-                let files = boxforge::output::report_files(d, &command);
+                let files = boxforge::output::generated_files(d, &command, &layouts, &variants)?;
                 if check {
                     for (name, text) in &files {
                         if std::fs::read_to_string(out.join(name)).ok().as_deref() != Some(text.as_str()) {
@@ -124,6 +159,72 @@ fn run(cli: Cli) -> Result<(), Failure> {
             }
             Ok(())
         }
+    }
+}
+
+/// `boxforge validate`: exit 0 when valid and branch-free, 1 otherwise.
+fn validate(file: &std::path::Path, entries: &[String], json: bool) -> Result<(), Failure> {
+    let source = std::fs::read_to_string(file)
+        .map_err(|e| Failure(format!("cannot read {}: {e} (check the path)", file.display())))?;
+    let report = boxforge::validate::validate_wgsl(&source, &file.display().to_string());
+    let required: Vec<String> = if entries.is_empty() {
+        report
+            .functions
+            .iter()
+            .filter(|f| f.name.ends_with("_eval") || f.name.ends_with("_eval_grad"))
+            .map(|f| f.name.clone())
+            .collect()
+    } else {
+        entries.to_vec()
+    };
+    let names: Vec<&str> = required.iter().map(|s| s.as_str()).collect();
+    let verdict =
+        if report.valid { boxforge::validate::check_branch_free(&report, &names) } else { Err("invalid".into()) };
+    if json {
+        let v = serde_json::json!({
+            "valid": report.valid,
+            "error": report.error,
+            "branch_free_required": required,
+            "branch_free": verdict.is_ok(),
+            "functions": report.functions.iter().map(|f| serde_json::json!({
+                "name": f.name,
+                "branches": f.total_branches,
+                "loops": f.total_loops,
+                "kills": f.total_kills,
+                "dynamic_array_indexing": f.total_dynamic_array_indexing,
+                "loads": f.total_loads,
+            })).collect::<Vec<_>>(),
+        });
+        println!("{v}");
+    } else {
+        match &report.error {
+            Some(e) => println!("{} is not valid WGSL:\n{e}", file.display()),
+            None => {
+                println!("{}: valid", file.display());
+                for f in &report.functions {
+                    println!(
+                        "  {:<32} branches {:>3}  loops {:>3}  kills {}  table lookups {:>3}  loads {:>4}{}",
+                        f.name,
+                        f.total_branches,
+                        f.total_loops,
+                        f.total_kills,
+                        f.total_dynamic_array_indexing,
+                        f.total_loads,
+                        if required.contains(&f.name) { "  (must be branch-free)" } else { "" }
+                    );
+                }
+            }
+        }
+        if let Err(e) = &verdict {
+            if report.valid {
+                println!("FAILED: {e}");
+            }
+        }
+    }
+    if verdict.is_ok() {
+        Ok(())
+    } else {
+        std::process::exit(1)
     }
 }
 

@@ -66,3 +66,35 @@ proptest! {
         }
     }
 }
+
+/// Small random filters (entries in -1..=1, up to 5 directions) emit WGSL
+/// that validates and whose eval functions are branch-free.
+fn small_filter_strategy() -> impl Strategy<Value = Filter> {
+    prop::sample::select(BUILTIN_LATTICES.to_vec()).prop_flat_map(|name| {
+        let l = Lattice::builtin(name).unwrap();
+        let s = l.dim();
+        let vs: Vec<Vec<i64>> = lattice_vectors(&l).into_iter().filter(|v| v.iter().all(|x| x.abs() <= 1)).collect();
+        let vs = if vs.len() < s { lattice_vectors(&l) } else { vs };
+        prop::collection::vec(prop::sample::select(vs), s..=s + 2)
+            .prop_filter_map("directions must span", move |dirs| {
+                Filter::new("rnd", "", l.clone(), dirs, Caps::default()).ok()
+            })
+    })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: cases(), max_shrink_iters: 32, ..ProptestConfig::default() })]
+
+    #[test]
+    fn random_filters_emit_valid_branch_free_wgsl(filter in small_filter_strategy()) {
+        use boxforge::emit::{emit, EmitOptions, Layout};
+        let d = Derivation::new(&filter).map_err(|e| TestCaseError::fail(e.to_string()))?;
+        for layout in [Layout::Embedded, Layout::Packed] {
+            let e = emit(&d, &EmitOptions { layout, ..EmitOptions::default() }).map_err(|e| TestCaseError::fail(e.to_string()))?;
+            let r = boxforge::validate::validate_wgsl(&e.source, &e.file_name);
+            prop_assert!(r.valid, "{:?}: {}", filter.directions, r.error.clone().unwrap_or_default());
+            boxforge::validate::check_branch_free(&r, &["rnd_eval", "rnd_eval_grad"]).map_err(TestCaseError::fail)?;
+            prop_assert_eq!(r.function("rnd_eval").unwrap().total_loads, e.stats.fetches_per_eval);
+        }
+    }
+}

@@ -12,7 +12,14 @@ fn shaders_out_is_fresh() {
     let mut expected = std::collections::BTreeSet::new();
     let mut stale = Vec::new();
     for d in boxforge_tests::all_catalog() {
-        for (name, text) in boxforge::output::report_files(&d, command) {
+        let files = boxforge::output::generated_files(
+            &d,
+            command,
+            &boxforge::output::ALL_LAYOUTS,
+            &boxforge::output::ALL_VARIANTS,
+        )
+        .unwrap();
+        for (name, text) in files {
             if std::fs::read_to_string(dir.join(&name)).ok().as_deref() != Some(text.as_str()) {
                 stale.push(name.clone());
             }
