@@ -42,6 +42,12 @@ pub enum Error {
         "no quasi-interpolation prefilter found within {shells} shells: raise the shell limit or check the filter"
     )]
     Prefilter { shells: usize },
+    #[error("no output directory: OUT_DIR is not set (Cargo sets it for build scripts); call .out_dir(path) on the boxforge::Builder outside a build script")]
+    OutDir,
+    #[error(
+        "generated WGSL for {file} is invalid: {message} (this is a boxforge bug; please report it with the spec)"
+    )]
+    InvalidWgsl { file: PathBuf, message: String },
 }
 
 pub type Result<T> = std::result::Result<T, Error>;

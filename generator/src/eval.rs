@@ -96,20 +96,19 @@ impl Derivation {
             .collect();
         let u: Vec<f64> = (0..s).map(|i| y[i] - t.offset[i] - r.corner[i] as f64).collect();
         let tab = self.f64_reference(map.reference);
-        let mut value = 0.0;
-        let mut grad_u = vec![0.0; s];
+        // Sum the data-weighted coefficients first, then evaluate one polynomial.
+        let mut combined = vec![0.0; tab.exps.len()];
         for (k, off) in r.stencil.iter().enumerate() {
             let j = add_i(&l, &map.inverse_point(&add_i(&r.corner, off)));
             let c = data(&j);
             if c == 0.0 {
                 continue;
             }
-            let (v, g) = eval_poly_f64(&tab.exps, &tab.coeffs[k], &u);
-            value += c * v;
-            for i in 0..s {
-                grad_u[i] += c * g[i];
+            for (acc, coef) in combined.iter_mut().zip(&tab.coeffs[k]) {
+                *acc += c * coef;
             }
         }
+        let (value, grad_u) = eval_poly_f64(&tab.exps, &combined, &u);
         // d/dx = R^T d/dy
         let grad: Vec<f64> = (0..s).map(|i| (0..s).map(|k| map.rotation[k][i] as f64 * grad_u[k]).sum()).collect();
         (value, grad)

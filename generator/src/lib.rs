@@ -7,6 +7,7 @@
 
 pub mod arrangement;
 pub mod bb;
+pub mod builder;
 pub mod derive;
 pub mod emit;
 pub mod error;
@@ -28,5 +29,6 @@ pub mod spline;
 pub mod symmetry;
 pub mod validate;
 
+pub use builder::Builder;
 pub use error::{Error, Result};
 pub use spec::Filter;

@@ -397,7 +397,7 @@ mod tests {
                 seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
                 ((seed >> 33) as f64 / (1u64 << 31) as f64) * 12.0 - 6.0
             };
-            let data = |j: &[i64]| ((j.iter().fold(17i64, |h, &x| h.wrapping_mul(31).wrapping_add(x)) % 23) as f64);
+            let data = |j: &[i64]| (j.iter().fold(17i64, |h, &x| h.wrapping_mul(31).wrapping_add(x)) % 23) as f64;
             for _ in 0..300 {
                 let x: Vec<f64> = (0..d.facts.dim).map(|_| rnd()).collect();
                 let (v, g) = plan.eval_f64(&d, &x, &data);

@@ -62,6 +62,26 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Evaluate a filter's eval / eval_grad on the GPU at random points of a
+    /// random volume and compare with the exact evaluator (f64).
+    Verify {
+        /// Catalog name or spec file (3D filters).
+        #[arg(long)]
+        filter: String,
+        #[arg(long, value_parser = ["embedded", "packed"], default_value = "embedded")]
+        layout: String,
+        #[arg(long, value_parser = ["fast", "naive"], default_value = "fast")]
+        variant: String,
+        #[arg(long, default_value_t = 100_000)]
+        points: usize,
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Adapter name (substring); default: WGPU_ADAPTER_NAME or the best available.
+        #[arg(long)]
+        adapter: Option<String>,
+        #[arg(long)]
+        json: bool,
+    },
     /// List the built-in catalog.
     List,
 }
@@ -96,6 +116,36 @@ fn run(cli: Cli) -> Result<(), Failure> {
             Ok(())
         }
         Command::Validate { file, entries, json } => validate(&file, &entries, json),
+        Command::Verify { filter, layout, variant, points, seed, adapter, json } => {
+            let f = spec::resolve(&filter)?;
+            let d = Derivation::new(&f)?;
+            let gpu = boxforge_runtime::gpu::Gpu::new(adapter.as_deref()).map_err(|e| Failure(e.to_string()))?;
+            let layout = Layout::parse(&layout).expect("clap checked");
+            let variant = Variant::parse(&variant).expect("clap checked");
+            let r = boxforge_runtime::verify::verify(&gpu, &d, layout, variant, points, seed)
+                .map_err(|e| Failure(e.to_string()))?;
+            if json {
+                println!("{}", serde_json::to_string(&r).unwrap());
+            } else {
+                println!(
+                    "{} ({}, {}) on {}: {} points, max |value error| {:.3e} (range {:.3}), max relative gradient error {:.3e}: {}",
+                    r.filter,
+                    layout.name(),
+                    variant.name(),
+                    r.adapter,
+                    r.points,
+                    r.max_abs_err,
+                    r.data_range,
+                    r.max_rel_grad_err,
+                    if r.passed { "PASSED" } else { "FAILED" }
+                );
+            }
+            if r.passed {
+                Ok(())
+            } else {
+                std::process::exit(1)
+            }
+        }
         Command::Generate { filters, all, out, layout, variant, check } => {
             let names = filter_names(filters.clone(), all)?;
             let resolved = names.iter().map(|n| spec::resolve(n)).collect::<Result<Vec<_>, _>>()?;

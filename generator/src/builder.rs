@@ -1,0 +1,347 @@
+//! The build-script API: generate WGSL modules into `OUT_DIR` from a
+//! `build.rs`, the way `prost-build` and `bindgen` generate Rust.
+//!
+//! A by-value [`Builder`] collects catalog filters and spec files, then
+//! [`Builder::generate`] derives every filter, emits its module, validates it
+//! with naga (and, for the fast variant, proves `<f>_eval` and `<f>_eval_grad`
+//! branch-free and table-free), and only then writes
+//! `<filter>.<layout>.wgsl` (or `<filter>.<layout>.naive.wgsl`) atomically.
+//! A module that does not validate is an [`Error::InvalidWgsl`]; it is never
+//! written.
+//!
+//! `build.rs`:
+//!
+//! ```ignore
+//! fn main() {
+//!     boxforge::Builder::new().filter("bcc7").spec_file("filters/my_filter.toml").generate().unwrap();
+//! }
+//! ```
+//!
+//! and in the crate, the module as a string for `wgpu::ShaderSource::Wgsl`:
+//!
+//! ```ignore
+//! const BCC7_WGSL: &str = include_str!(concat!(env!("OUT_DIR"), "/bcc7.embedded.wgsl"));
+//! ```
+//!
+//! The header of every generated file names `boxforge::Builder (build.rs)`
+//! as the command that made it.
+
+use crate::derive::Derivation;
+use crate::emit::{emit, EmitOptions, EmitStats, Layout, Variant};
+use crate::error::{Error, Result};
+use crate::output::write_atomic;
+use crate::spec::{catalog, Filter};
+use crate::validate::{check_branch_free, validate_wgsl};
+use std::path::{Path, PathBuf};
+
+/// The command named in the header of every file the [`Builder`] writes.
+pub const BUILDER_COMMAND: &str = "boxforge::Builder (build.rs)";
+
+/// Generates WGSL modules for box-spline filters from a build script.
+///
+/// Configure by value and finish with [`generate`](Builder::generate):
+///
+/// ```ignore
+/// // build.rs
+/// fn main() {
+///     boxforge::Builder::new().filter("bcc7").spec_file("filters/my_filter.toml").generate().unwrap();
+/// }
+/// ```
+///
+/// ```ignore
+/// // src/main.rs
+/// const BCC7_WGSL: &str = include_str!(concat!(env!("OUT_DIR"), "/bcc7.embedded.wgsl"));
+/// ```
+///
+/// Defaults: [`Layout::Embedded`], [`Variant::Fast`], bind group 0, first
+/// binding 0, prefilter and min/max kernels included, output in `$OUT_DIR`,
+/// and `cargo:rerun-if-changed=<spec path>` printed for every spec file when
+/// running as a build script (`OUT_DIR` set).
+#[derive(Clone, Debug)]
+#[must_use = "a Builder does nothing until .generate() is called"]
+pub struct Builder {
+    filters: Vec<String>,
+    spec_files: Vec<PathBuf>,
+    layout: Layout,
+    variant: Variant,
+    out_dir: Option<PathBuf>,
+    group: u32,
+    binding: u32,
+    kernels: bool,
+    emit_rerun_if_changed: bool,
+}
+
+/// What [`Builder::generate`] wrote: one entry per filter, catalog filters
+/// first (in the order given), then spec files (in the order given).
+/// `files[i]` and `stats[i]` belong to the same module.
+#[derive(Clone, Debug)]
+pub struct Generated {
+    /// Paths of the written modules, `<out_dir>/<filter>.<layout>[.naive].wgsl`.
+    pub files: Vec<PathBuf>,
+    /// The emitter's counts for each module (fetches per eval, operations, ...).
+    pub stats: Vec<EmitStats>,
+}
+
+impl Default for Builder {
+    fn default() -> Self {
+        Builder::new()
+    }
+}
+
+impl Builder {
+    /// A builder with no filters and the defaults listed on [`Builder`].
+    pub fn new() -> Self {
+        Builder {
+            filters: Vec::new(),
+            spec_files: Vec::new(),
+            layout: Layout::Embedded,
+            variant: Variant::Fast,
+            out_dir: None,
+            group: 0,
+            binding: 0,
+            kernels: true,
+            emit_rerun_if_changed: std::env::var_os("OUT_DIR").is_some(),
+        }
+    }
+
+    /// Adds a catalog filter by name (`boxforge list` shows them).
+    pub fn filter(mut self, name: &str) -> Self {
+        self.filters.push(name.to_string());
+        self
+    }
+
+    /// Adds a filter from a TOML spec file (same format as the catalog). A
+    /// relative path is relative to the working directory, which in a build
+    /// script is the package's root.
+    pub fn spec_file(mut self, path: impl AsRef<Path>) -> Self {
+        self.spec_files.push(path.as_ref().to_path_buf());
+        self
+    }
+
+    /// Storage layout of the samples (default [`Layout::Embedded`]).
+    pub fn layout(mut self, l: Layout) -> Self {
+        self.layout = l;
+        self
+    }
+
+    /// Code shape (default [`Variant::Fast`], branch-free).
+    pub fn variant(mut self, v: Variant) -> Self {
+        self.variant = v;
+        self
+    }
+
+    /// Bind group of the samples (default 0).
+    pub fn bind_group(mut self, g: u32) -> Self {
+        self.group = g;
+        self
+    }
+
+    /// First binding of the samples within the bind group (default 0).
+    pub fn binding(mut self, b: u32) -> Self {
+        self.binding = b;
+        self
+    }
+
+    /// Whether to include the prefilter and min/max compute kernels (default true).
+    pub fn kernels(mut self, yes: bool) -> Self {
+        self.kernels = yes;
+        self
+    }
+
+    /// Output directory (default: `$OUT_DIR`; created if missing).
+    pub fn out_dir(mut self, dir: impl AsRef<Path>) -> Self {
+        self.out_dir = Some(dir.as_ref().to_path_buf());
+        self
+    }
+
+    /// Whether to print `cargo:rerun-if-changed=<spec path>` for every spec
+    /// file (default: true when `OUT_DIR` is set, i.e. in a build script).
+    pub fn emit_rerun_if_changed(mut self, yes: bool) -> Self {
+        self.emit_rerun_if_changed = yes;
+        self
+    }
+
+    /// Derives, emits and validates every filter, then writes the modules.
+    ///
+    /// Nothing is written unless every module validates, so a failing build
+    /// never leaves a mix of old and new files behind. Returns the written
+    /// paths and the emitter's counts (see [`Generated`]); with no filters
+    /// it writes nothing and returns empty lists.
+    ///
+    /// Errors: an unknown catalog name ([`Error::UnknownFilter`]), an
+    /// unreadable or invalid spec file ([`Error::Io`], [`Error::Spec`] and
+    /// the validation errors), no output directory ([`Error::OutDir`]), two
+    /// filters with the same name, or a module naga rejects or that is not
+    /// branch-free in the fast variant ([`Error::InvalidWgsl`]).
+    pub fn generate(self) -> Result<Generated> {
+        let out_dir = match &self.out_dir {
+            Some(d) => d.clone(),
+            None => std::env::var_os("OUT_DIR").map(PathBuf::from).ok_or(Error::OutDir)?,
+        };
+        if self.emit_rerun_if_changed {
+            for p in &self.spec_files {
+                // Absolute, so Cargo watches the right file whatever it takes as the base.
+                let shown = std::path::absolute(p).unwrap_or_else(|_| p.clone());
+                println!("cargo:rerun-if-changed={}", shown.display());
+            }
+        }
+        let mut filters: Vec<Filter> = Vec::new();
+        for name in &self.filters {
+            filters.push(catalog::get(name)?);
+        }
+        for p in &self.spec_files {
+            filters.push(Filter::from_file(p)?);
+        }
+        for (i, f) in filters.iter().enumerate() {
+            if filters[..i].iter().any(|g| g.name == f.name) {
+                return Err(Error::Spec {
+                    origin: format!("filter '{}'", f.name),
+                    message: "two filters given to boxforge::Builder share this name and would write the same \
+                              file; rename one spec"
+                        .into(),
+                });
+            }
+        }
+        let opts = EmitOptions {
+            layout: self.layout,
+            variant: self.variant,
+            group: self.group,
+            binding: self.binding,
+            kernels: self.kernels,
+            command: BUILDER_COMMAND.to_string(),
+        };
+        let mut modules = Vec::new();
+        for f in &filters {
+            let d = Derivation::new(f)?;
+            let e = emit(&d, &opts)?;
+            let path = out_dir.join(&e.file_name);
+            check_module(&f.name, &e.source, &path, self.variant)?;
+            modules.push((path, e));
+        }
+        let mut generated = Generated { files: Vec::new(), stats: Vec::new() };
+        for (path, e) in modules {
+            // Leave an identical file alone (keeps its mtime for anything watching it).
+            if std::fs::read(&path).ok().as_deref() != Some(e.source.as_bytes()) {
+                write_atomic(&path, e.source.as_bytes())?;
+            }
+            generated.files.push(path);
+            generated.stats.push(e.stats);
+        }
+        Ok(generated)
+    }
+}
+
+/// naga validation for every module; the branch-free proof of `<f>_eval`
+/// and `<f>_eval_grad` for the fast variant.
+fn check_module(name: &str, source: &str, path: &Path, variant: Variant) -> Result<()> {
+    let report = validate_wgsl(source, &path.display().to_string());
+    if !report.valid {
+        return Err(Error::InvalidWgsl {
+            file: path.to_path_buf(),
+            message: report.error.unwrap_or_else(|| "naga rejected the module".into()),
+        });
+    }
+    if variant == Variant::Fast {
+        check_branch_free(&report, &[&format!("{name}_eval"), &format!("{name}_eval_grad")])
+            .map_err(|message| Error::InvalidWgsl { file: path.to_path_buf(), message })?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn temp_dir(tag: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("boxforge-builder-{tag}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        d
+    }
+
+    fn assert_branch_free(path: &Path, name: &str) {
+        let src = std::fs::read_to_string(path).unwrap();
+        assert!(src.starts_with(&format!("// generated by `{BUILDER_COMMAND}`")), "{}", path.display());
+        let r = validate_wgsl(&src, &path.display().to_string());
+        assert!(r.valid, "{}: {:?}", path.display(), r.error);
+        check_branch_free(&r, &[&format!("{name}_eval"), &format!("{name}_eval_grad")]).unwrap();
+    }
+
+    #[test]
+    fn builder_writes_validated_branch_free_modules() {
+        let dir = temp_dir("ok");
+        let spec = dir.join("specs").join("my_zp.toml");
+        std::fs::create_dir_all(spec.parent().unwrap()).unwrap();
+        std::fs::write(&spec, "name = \"my_zp\"\nlattice = \"quincunx\"\ndirections = [[1,1],[-1,1],[2,0],[0,2]]\n")
+            .unwrap();
+        let out = dir.join("out");
+        let g = Builder::new()
+            .filter("courant")
+            .spec_file(&spec)
+            .out_dir(&out)
+            .emit_rerun_if_changed(false)
+            .generate()
+            .unwrap();
+        assert_eq!(g.files, vec![out.join("courant.embedded.wgsl"), out.join("my_zp.embedded.wgsl")]);
+        assert_eq!(g.stats.len(), 2);
+        assert_branch_free(&g.files[0], "courant");
+        assert_branch_free(&g.files[1], "my_zp");
+        // Only the modules, no temporary files.
+        let mut names: Vec<_> = std::fs::read_dir(&out).unwrap().map(|e| e.unwrap().file_name()).collect();
+        names.sort();
+        assert_eq!(names, ["courant.embedded.wgsl", "my_zp.embedded.wgsl"]);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn builder_options_reach_the_module() {
+        let dir = temp_dir("opts");
+        let g = Builder::new()
+            .filter("zp")
+            .layout(Layout::Packed)
+            .variant(Variant::Naive)
+            .bind_group(2)
+            .binding(3)
+            .kernels(false)
+            .out_dir(&dir)
+            .emit_rerun_if_changed(false)
+            .generate()
+            .unwrap();
+        assert_eq!(g.files, vec![dir.join("zp.packed.naive.wgsl")]);
+        let src = std::fs::read_to_string(&g.files[0]).unwrap();
+        assert!(src.contains("@group(2) @binding(3)"), "{src}");
+        assert!(!src.contains("zp_prefilter_main"));
+        assert!(validate_wgsl(&src, "zp").valid);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn builder_rejects_unknown_filters_bad_specs_and_duplicates() {
+        let dir = temp_dir("err");
+        let b = || Builder::new().out_dir(&dir).emit_rerun_if_changed(false);
+        assert!(matches!(b().filter("no_such_filter").generate(), Err(Error::UnknownFilter { .. })));
+        assert!(matches!(b().spec_file(dir.join("missing.toml")).generate(), Err(Error::Io { .. })));
+        assert!(matches!(b().filter("zp").filter("zp").generate(), Err(Error::Spec { .. })));
+        assert!(!dir.exists(), "nothing is written when generation fails");
+    }
+
+    #[test]
+    fn builder_without_out_dir_needs_out_dir_env() {
+        let b = Builder::new().filter("courant").emit_rerun_if_changed(false);
+        // Under a runner that sets OUT_DIR the default applies instead; explicit paths are tested above.
+        if std::env::var_os("OUT_DIR").is_none() {
+            assert!(matches!(b.generate(), Err(Error::OutDir)));
+        }
+        assert!(Error::OutDir.to_string().contains("out_dir"));
+    }
+
+    #[test]
+    fn invalid_wgsl_is_an_error() {
+        let e = check_module("x", "fn x_eval( -> f32 {}", Path::new("x.wgsl"), Variant::Fast).unwrap_err();
+        assert!(matches!(e, Error::InvalidWgsl { .. }), "{e}");
+        let branchy = "fn x_eval(p: f32) -> f32 { if p > 0.0 { return 1.0; } return 0.0; }\n\
+                       fn x_eval_grad(p: f32) -> f32 { return p; }\n";
+        let e = check_module("x", branchy, Path::new("x.wgsl"), Variant::Fast).unwrap_err();
+        assert!(e.to_string().contains("x_eval"), "{e}");
+        check_module("x", branchy, Path::new("x.wgsl"), Variant::Naive).unwrap();
+    }
+}

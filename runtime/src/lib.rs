@@ -1,0 +1,8 @@
+//! boxforge runtime: a headless wgpu device, volumes in, GPU evaluation of
+//! the generated shaders checked against the exact evaluator, isosurface
+//! images out.
+
+pub mod gpu;
+pub mod upload;
+pub mod verify;
+pub mod volume;

@@ -1,0 +1,134 @@
+//! Lattice samples on the device, in the layout the emitted `<f>_fetch` reads.
+
+use crate::gpu::{Gpu, GpuError};
+use crate::volume::LatticeVolume;
+use boxforge::emit::Layout;
+use wgpu::util::DeviceExt;
+
+/// Samples uploaded for one layout, with the bind-group pieces the emitted
+/// module declares (embedded: one 3D texture; packed: storage buffer + grid uniform).
+pub struct DeviceVolume {
+    pub layout: Layout,
+    texture_view: Option<wgpu::TextureView>,
+    buffers: Vec<wgpu::Buffer>,
+    /// Bytes on the device for the samples.
+    pub bytes: usize,
+}
+
+impl DeviceVolume {
+    pub fn new(gpu: &Gpu, v: &LatticeVolume, layout: Layout) -> Result<DeviceVolume, GpuError> {
+        match layout {
+            Layout::Embedded => {
+                let [nx, ny, nz] = v.dims;
+                let tex = gpu.checked("upload embedded texture", || {
+                    gpu.device.create_texture_with_data(
+                        &gpu.queue,
+                        &wgpu::TextureDescriptor {
+                            label: Some("samples"),
+                            size: wgpu::Extent3d {
+                                width: nx as u32,
+                                height: ny as u32,
+                                depth_or_array_layers: nz as u32,
+                            },
+                            mip_level_count: 1,
+                            sample_count: 1,
+                            dimension: wgpu::TextureDimension::D3,
+                            format: wgpu::TextureFormat::R32Float,
+                            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+                            view_formats: &[],
+                        },
+                        wgpu::util::TextureDataOrder::LayerMajor,
+                        bytemuck::cast_slice(&v.data),
+                    )
+                })?;
+                let view = tex.create_view(&wgpu::TextureViewDescriptor::default());
+                Ok(DeviceVolume { layout, texture_view: Some(view), buffers: vec![], bytes: v.data.len() * 4 })
+            }
+            Layout::Packed => {
+                let (words, grid) = v.packed().map_err(|e| GpuError::Runtime(e.to_string()))?;
+                let samples = gpu.storage_buffer("packed samples", bytemuck::cast_slice(&words), false);
+                let grid = gpu.uniform_buffer("packed grid", bytemuck::cast_slice(&grid));
+                Ok(DeviceVolume { layout, texture_view: None, buffers: vec![samples, grid], bytes: words.len() * 4 })
+            }
+        }
+    }
+
+    /// Layout entries starting at `first` (binding numbers used by the emitter).
+    pub fn layout_entries(&self, first: u32, visibility: wgpu::ShaderStages) -> Vec<wgpu::BindGroupLayoutEntry> {
+        match self.layout {
+            Layout::Embedded => vec![wgpu::BindGroupLayoutEntry {
+                binding: first,
+                visibility,
+                ty: wgpu::BindingType::Texture {
+                    sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                    view_dimension: wgpu::TextureViewDimension::D3,
+                    multisampled: false,
+                },
+                count: None,
+            }],
+            Layout::Packed => vec![
+                wgpu::BindGroupLayoutEntry {
+                    binding: first,
+                    visibility,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Storage { read_only: true },
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                    count: None,
+                },
+                wgpu::BindGroupLayoutEntry {
+                    binding: first + 1,
+                    visibility,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Uniform,
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                    count: None,
+                },
+            ],
+        }
+    }
+
+    pub fn bind_entries(&self, first: u32) -> Vec<wgpu::BindGroupEntry<'_>> {
+        match self.layout {
+            Layout::Embedded => vec![wgpu::BindGroupEntry {
+                binding: first,
+                resource: wgpu::BindingResource::TextureView(self.texture_view.as_ref().unwrap()),
+            }],
+            Layout::Packed => vec![
+                wgpu::BindGroupEntry { binding: first, resource: self.buffers[0].as_entire_binding() },
+                wgpu::BindGroupEntry { binding: first + 1, resource: self.buffers[1].as_entire_binding() },
+            ],
+        }
+    }
+}
+
+/// A storage-buffer layout entry.
+pub fn storage_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+/// A uniform-buffer layout entry.
+pub fn uniform_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}

@@ -1,0 +1,246 @@
+//! `boxforge verify`: the emitted `eval` / `eval_grad` on the device against
+//! the exact evaluator (f64) at random points of a random volume.
+
+use crate::gpu::{Gpu, GpuError};
+use crate::upload::{storage_entry, DeviceVolume};
+use crate::volume::LatticeVolume;
+use boxforge::derive::Derivation;
+use boxforge::emit::{emit, EmitOptions, Layout, Variant};
+use serde::Serialize;
+
+#[derive(Clone, Debug, Serialize)]
+pub struct VerifyReport {
+    pub filter: String,
+    pub layout: Layout,
+    pub variant: Variant,
+    pub points: usize,
+    /// max |GPU value - exact value| (also over eval vs eval_grad.x).
+    pub max_abs_err: f64,
+    /// max over points of |grad_gpu - grad_exact|_inf / max(|grad_exact|_inf, data range).
+    pub max_rel_grad_err: f64,
+    pub data_range: f64,
+    pub passed: bool,
+    pub adapter: String,
+}
+
+/// A deterministic random source (SplitMix64).
+pub struct Rng(pub u64);
+impl Rng {
+    pub fn next_f64(&mut self) -> f64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+/// Half-extent of the support along each axis, rounded up.
+pub fn support_radius(d: &Derivation) -> usize {
+    (0..d.facts.dim)
+        .map(|i| d.facts.directions.iter().map(|v| v[i].unsigned_abs()).sum::<u64>().div_ceil(2) as usize)
+        .max()
+        .unwrap_or(1)
+}
+
+/// Random data in [0, 1) at the lattice points of a box big enough for the support.
+pub fn random_volume(d: &Derivation, seed: u64) -> LatticeVolume {
+    let r = support_radius(d);
+    let n = (2 * r + 10).next_multiple_of(2);
+    let dims = [n, n, n];
+    let mut rng = Rng(seed);
+    let mut data = vec![0f32; n * n * n];
+    for k in 0..n {
+        for j in 0..n {
+            for i in 0..n {
+                if d.filter.lattice.contains(&[i as i64, j as i64, k as i64]) {
+                    data[i + n * (j + n * k)] = rng.next_f64() as f32;
+                }
+            }
+        }
+    }
+    LatticeVolume { lattice: d.filter.lattice.clone(), dims, data }
+}
+
+/// A compute wrapper that evaluates the filter at a list of points.
+fn wrapper(name: &str) -> String {
+    format!(
+        "
+@group(1) @binding(0) var<storage, read> vf_points: array<vec4<f32>>;
+@group(1) @binding(1) var<storage, read_write> vf_grad: array<vec4<f32>>;
+@group(1) @binding(2) var<storage, read_write> vf_value: array<f32>;
+
+@compute @workgroup_size(64)
+fn verify_main(@builtin(global_invocation_id) gid: vec3<u32>) {{
+    let i = gid.x + gid.y * 65535u * 64u;
+    if (i >= arrayLength(&vf_points)) {{
+        return;
+    }}
+    let p = vf_points[i].xyz;
+    vf_grad[i] = {name}_eval_grad(p);
+    vf_value[i] = {name}_eval(p);
+}}
+"
+    )
+}
+
+/// Evaluates eval and eval_grad on the device at `points`: (values, value+gradient).
+pub fn gpu_eval(
+    gpu: &Gpu,
+    d: &Derivation,
+    vol: &DeviceVolume,
+    variant: Variant,
+    points: &[[f32; 4]],
+) -> Result<(Vec<f32>, Vec<[f32; 4]>), GpuError> {
+    let name = &d.filter.name;
+    let module = emit(
+        d,
+        &EmitOptions {
+            layout: vol.layout,
+            variant,
+            kernels: false,
+            command: "boxforge verify".into(),
+            ..Default::default()
+        },
+    )
+    .map_err(|e| GpuError::Runtime(e.to_string()))?;
+    let source = format!("{}\n{}", module.source, wrapper(name));
+    let shader = gpu.compile(&module.file_name, &source)?;
+    let dev = &gpu.device;
+    let bgl0 = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("samples"),
+        entries: &vol.layout_entries(0, wgpu::ShaderStages::COMPUTE),
+    });
+    let bgl1 = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("io"),
+        entries: &[storage_entry(0, true), storage_entry(1, false), storage_entry(2, false)],
+    });
+    let layout = dev.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some("verify"),
+        bind_group_layouts: &[Some(&bgl0), Some(&bgl1)],
+        immediate_size: 0,
+    });
+    let pipeline = gpu.checked("verify pipeline", || {
+        dev.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("verify"),
+            layout: Some(&layout),
+            module: &shader,
+            entry_point: Some("verify_main"),
+            compilation_options: Default::default(),
+            cache: None,
+        })
+    })?;
+    let n = points.len();
+    let pts = gpu.storage_buffer("points", bytemuck::cast_slice(points), false);
+    let grad = gpu.storage_buffer("grad", &vec![0u8; n * 16], true);
+    let value = gpu.storage_buffer("value", &vec![0u8; n * 4], true);
+    let bg0 = dev.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("samples"),
+        layout: &bgl0,
+        entries: &vol.bind_entries(0),
+    });
+    let bg1 = dev.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("io"),
+        layout: &bgl1,
+        entries: &[
+            wgpu::BindGroupEntry { binding: 0, resource: pts.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 1, resource: grad.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 2, resource: value.as_entire_binding() },
+        ],
+    });
+    let groups = n.div_ceil(64) as u32;
+    let (gx, gy) = (groups.min(65535), groups.div_ceil(65535));
+    gpu.checked("verify dispatch", || {
+        let mut enc = dev.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("verify") });
+        {
+            let mut pass =
+                enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("verify"), timestamp_writes: None });
+            pass.set_pipeline(&pipeline);
+            pass.set_bind_group(0, &bg0, &[]);
+            pass.set_bind_group(1, &bg1, &[]);
+            pass.dispatch_workgroups(gx, gy, 1);
+        }
+        gpu.queue.submit([enc.finish()]);
+    })?;
+    let g: Vec<[f32; 4]> = bytemuck::cast_slice(&gpu.read_buffer(&grad)?).to_vec();
+    let v: Vec<f32> = bytemuck::cast_slice(&gpu.read_buffer(&value)?).to_vec();
+    Ok((v, g))
+}
+
+/// Random points where the whole support lies inside the volume.
+pub fn random_points(d: &Derivation, vol: &LatticeVolume, count: usize, seed: u64) -> Vec<[f32; 4]> {
+    let r = support_radius(d) as f64 + 1.0;
+    let mut rng = Rng(seed ^ 0xABCD);
+    (0..count)
+        .map(|_| {
+            let mut p = [0f32; 4];
+            for (i, pi) in p.iter_mut().take(3).enumerate() {
+                let n = vol.dims[i] as f64;
+                *pi = (r + rng.next_f64() * (n - 1.0 - 2.0 * r)) as f32;
+            }
+            p
+        })
+        .collect()
+}
+
+/// Exact (f64) evaluation at the points, on all cores.
+pub fn cpu_eval(d: &Derivation, vol: &LatticeVolume, points: &[[f32; 4]]) -> Vec<(f64, Vec<f64>)> {
+    let threads = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
+    let chunk = points.len().div_ceil(threads).max(1);
+    let data = |j: &[i64]| vol.get(j) as f64;
+    let _ = d.f64_tables();
+    std::thread::scope(|s| {
+        let handles: Vec<_> = points
+            .chunks(chunk)
+            .map(|c| {
+                s.spawn(move || {
+                    c.iter().map(|p| d.eval_f64(&[p[0] as f64, p[1] as f64, p[2] as f64], &data)).collect::<Vec<_>>()
+                })
+            })
+            .collect();
+        handles.into_iter().flat_map(|h| h.join().expect("cpu eval")).collect()
+    })
+}
+
+pub fn verify(
+    gpu: &Gpu,
+    d: &Derivation,
+    layout: Layout,
+    variant: Variant,
+    points: usize,
+    seed: u64,
+) -> Result<VerifyReport, GpuError> {
+    if d.facts.dim != 3 {
+        return Err(GpuError::Runtime(format!(
+            "{} is {}D: the runtime verifies 3D filters (2D shaders are checked by naga only)",
+            d.filter.name, d.facts.dim
+        )));
+    }
+    let vol = random_volume(d, seed);
+    let pts = random_points(d, &vol, points, seed);
+    let dv = DeviceVolume::new(gpu, &vol, layout)?;
+    let (values, grads) = gpu_eval(gpu, d, &dv, variant, &pts)?;
+    let exact = cpu_eval(d, &vol, &pts);
+    let (lo, hi) = vol.data.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
+    let range = (hi - lo).max(f32::MIN_POSITIVE) as f64;
+    let mut max_abs: f64 = 0.0;
+    let mut max_rel: f64 = 0.0;
+    for ((v, g), (ev, eg)) in values.iter().zip(&grads).zip(&exact) {
+        max_abs = max_abs.max((*v as f64 - ev).abs()).max((g[0] as f64 - ev).abs());
+        let gmax = eg.iter().fold(0f64, |m, x| m.max(x.abs()));
+        let diff = (0..3).fold(0f64, |m, i| m.max((g[i + 1] as f64 - eg[i]).abs()));
+        max_rel = max_rel.max(diff / gmax.max(range));
+    }
+    let passed = max_abs <= 1e-5 * range && max_rel <= 1e-4;
+    Ok(VerifyReport {
+        filter: d.filter.name.clone(),
+        layout,
+        variant,
+        points,
+        max_abs_err: max_abs,
+        max_rel_grad_err: max_rel,
+        data_range: range,
+        passed,
+        adapter: gpu.describe(),
+    })
+}
