@@ -3,6 +3,8 @@
 //! images out.
 
 pub mod gpu;
+pub mod render;
+pub mod scene;
 pub mod upload;
 pub mod verify;
 pub mod volume;

@@ -6,6 +6,11 @@ use boxforge::emit::{Layout, Variant};
 use boxforge::output::{ALL_LAYOUTS, ALL_VARIANTS};
 use boxforge::report::Report;
 use boxforge::spec;
+use boxforge_runtime::gpu::Gpu;
+use boxforge_runtime::render::{self, RenderOptions};
+use boxforge_runtime::scene::{self, Conversion};
+
+mod demo;
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
@@ -82,6 +87,57 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Render an isosurface to PNG on the GPU.
+    Render {
+        #[arg(long)]
+        filter: String,
+        /// `ml:N` (Marschner-Lobb, about N^3 samples), a .nii/.nii.gz file, or a raw file with --raw.
+        #[arg(long)]
+        volume: String,
+        /// Raw volume format: nx,ny,nz,type (type u8, u16 or f32).
+        #[arg(long)]
+        raw: Option<String>,
+        /// Data lattice (default: the filter's).
+        #[arg(long)]
+        lattice: Option<String>,
+        /// Lattice subset of a Cartesian volume (default).
+        #[arg(long, conflicts_with = "resample")]
+        subset: bool,
+        /// Resample a Cartesian volume on the lattice at a matched sample count.
+        #[arg(long)]
+        resample: bool,
+        #[arg(long, default_value_t = 0.5)]
+        iso: f32,
+        #[arg(long, default_value_t = 512)]
+        size: u32,
+        /// Azimuth,elevation in degrees.
+        #[arg(long, default_value = "30,25", allow_hyphen_values = true)]
+        view: String,
+        #[arg(long)]
+        perspective: bool,
+        /// Turn empty-space skipping off.
+        #[arg(long)]
+        no_skip: bool,
+        /// Ray step in cells.
+        #[arg(long, default_value_t = 0.25)]
+        step: f32,
+        #[arg(long, value_parser = ["embedded", "packed"], default_value = "embedded")]
+        layout: String,
+        #[arg(long)]
+        adapter: Option<String>,
+        #[arg(long, default_value = "out.png")]
+        out: std::path::PathBuf,
+    },
+    /// The main job: generate the catalog, render Marschner-Lobb and the MNI
+    /// head with bcc7, bcc8, fcc6 and cc_tricubic into out/, print a table.
+    Demo {
+        #[arg(long, default_value = "out")]
+        out: std::path::PathBuf,
+        #[arg(long, default_value_t = 256)]
+        size: u32,
+        #[arg(long)]
+        adapter: Option<String>,
+    },
     /// List the built-in catalog.
     List,
 }
@@ -116,6 +172,69 @@ fn run(cli: Cli) -> Result<(), Failure> {
             Ok(())
         }
         Command::Validate { file, entries, json } => validate(&file, &entries, json),
+        Command::Render {
+            filter,
+            volume,
+            raw,
+            lattice,
+            subset: _,
+            resample,
+            iso,
+            size,
+            view,
+            perspective,
+            no_skip,
+            step,
+            layout,
+            adapter,
+            out,
+        } => {
+            let f = spec::resolve(&filter)?;
+            let d = Derivation::new(&f)?;
+            if d.facts.dim != 3 {
+                return Err(Failure(format!("{} is {}D: render needs a 3D filter", f.name, d.facts.dim)));
+            }
+            let lat = match lattice {
+                Some(l) => boxforge::lattice::Lattice::builtin(&l)?,
+                None => f.lattice.clone(),
+            };
+            if lat != f.lattice {
+                return Err(Failure(format!(
+                    "filter {} is defined on the {} lattice, not {}: pick a filter for that lattice",
+                    f.name, f.lattice.name, lat.name
+                )));
+            }
+            let (az, el) = parse_view(&view)?;
+            let conversion = if resample { Conversion::Resample } else { Conversion::Subset };
+            let vol = scene::load(&volume, raw.as_deref(), &lat, conversion).map_err(|e| Failure(e.to_string()))?;
+            let gpu = Gpu::new(adapter.as_deref()).map_err(|e| Failure(e.to_string()))?;
+            let opts = RenderOptions {
+                iso,
+                width: size,
+                height: size,
+                azimuth: az,
+                elevation: el,
+                perspective,
+                skip: !no_skip,
+                step,
+                ..RenderOptions::default()
+            };
+            eprintln!("rendering {} ({} samples) with {} on {} ...", volume, vol.samples(), f.name, gpu.describe());
+            let layout = Layout::parse(&layout).expect("clap checked");
+            let frame = render::render(&gpu, &d, &vol, layout, &opts).map_err(|e| Failure(e.to_string()))?;
+            render::write_png(&out, frame.width, frame.height, &frame.rgba)
+                .map_err(|e| Failure(format!("cannot write {}: {e}", out.display())))?;
+            println!(
+                "{}: {}x{} in {:.1} ms per frame ({:.0}% of blocks empty)",
+                out.display(),
+                size,
+                size,
+                frame.ms_per_frame,
+                frame.empty_blocks * 100.0
+            );
+            Ok(())
+        }
+        Command::Demo { out, size, adapter } => demo::run(&out, size, adapter.as_deref()).map_err(Failure),
         Command::Verify { filter, layout, variant, points, seed, adapter, json } => {
             let f = spec::resolve(&filter)?;
             let d = Derivation::new(&f)?;
@@ -209,6 +328,17 @@ fn run(cli: Cli) -> Result<(), Failure> {
             }
             Ok(())
         }
+    }
+}
+
+fn parse_view(v: &str) -> Result<(f32, f32), Failure> {
+    let parts: Vec<&str> = v.split(',').collect();
+    match parts.as_slice() {
+        [a, e] => match (a.trim().parse(), e.trim().parse()) {
+            (Ok(a), Ok(e)) => Ok((a, e)),
+            _ => Err(Failure(format!("--view {v}: expected AZ,EL in degrees, e.g. --view 30,25"))),
+        },
+        _ => Err(Failure(format!("--view {v}: expected AZ,EL in degrees, e.g. --view 30,25"))),
     }
 }
 

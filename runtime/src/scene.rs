@@ -1,0 +1,61 @@
+//! Turning a `--volume` argument into lattice samples: Marschner-Lobb at a
+//! sample budget, or a real volume (NIfTI / raw) as a lattice subset or
+//! resampled at a matched sample count.
+
+use crate::volume::{LatticeVolume, Volume, VolumeError};
+use boxforge::lattice::Lattice;
+use std::path::Path;
+
+/// How a Cartesian volume becomes data on a non-Cartesian lattice.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Conversion {
+    /// Keep the lattice points of the Cartesian grid (fewer samples).
+    Subset,
+    /// Resample (trilinear) on a scaled lattice with the same sample count.
+    Resample,
+}
+
+/// Box edge so that the lattice has about `samples` points in an n^3 box:
+/// n = (samples * |det G|)^(1/3), rounded to an even number.
+pub fn matched_edge(lattice: &Lattice, samples: f64) -> usize {
+    let n = (samples * lattice.det() as f64).cbrt();
+    ((n / 2.0).round() as usize * 2).max(4)
+}
+
+/// `ml:N` (Marschner-Lobb with about N^3 samples), `path.nii[.gz]`, or a raw
+/// file with `raw = Some("nx,ny,nz,type")`.
+pub fn load(
+    spec: &str,
+    raw: Option<&str>,
+    lattice: &Lattice,
+    conversion: Conversion,
+) -> Result<LatticeVolume, VolumeError> {
+    if let Some(n) = spec.strip_prefix("ml:") {
+        let n: f64 = n.parse().map_err(|_| VolumeError::BadRawSpec {
+            spec: spec.to_string(),
+            reason: "ml:N needs a number N (about N^3 samples), e.g. ml:41".into(),
+        })?;
+        let e = matched_edge(lattice, n * n * n);
+        return LatticeVolume::marschner_lobb(lattice, [e, e, e]);
+    }
+    let path = Path::new(spec);
+    let vol = match raw {
+        Some(r) => {
+            let (dims, ty) = crate::volume::parse_raw_spec(r)?;
+            Volume::load_raw(path, dims, ty)?
+        }
+        None => Volume::load_nifti(path)?,
+    };
+    from_cartesian(&vol, lattice, conversion)
+}
+
+/// A Cartesian volume on `lattice`.
+pub fn from_cartesian(vol: &Volume, lattice: &Lattice, conversion: Conversion) -> Result<LatticeVolume, VolumeError> {
+    if lattice.det() == 1 || conversion == Conversion::Subset {
+        return LatticeVolume::subset(lattice, vol);
+    }
+    let f = (lattice.det() as f64).cbrt();
+    let dims = vol.dims.map(|n| ((n as f64 * f).round() as usize).max(2));
+    let scale = (vol.dims[0] as f64 - 1.0) / (dims[0] as f64 - 1.0);
+    LatticeVolume::resample(lattice, vol, dims, scale)
+}
