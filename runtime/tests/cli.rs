@@ -97,3 +97,39 @@ fn spec_files_work_and_bad_input_is_one_clear_line_with_exit_code_2() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn bad_volume_input_is_one_clear_line() {
+    let dir = std::env::temp_dir().join(format!("boxforge-vol-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let raw = dir.join("v.raw");
+    std::fs::write(&raw, vec![0u8; 100]).unwrap();
+    let nan = dir.join("nan.raw");
+    let mut bytes = Vec::new();
+    for i in 0..8 {
+        let v: f32 = if i == 3 { f32::NAN } else { 1.0 };
+        bytes.extend_from_slice(&v.to_le_bytes());
+    }
+    std::fs::write(&nan, bytes).unwrap();
+    let bad_header = dir.join("bad.nii");
+    std::fs::write(&bad_header, b"definitely not nifti").unwrap();
+    let raw_s = raw.display().to_string();
+    let nan_s = nan.display().to_string();
+    let bad_s = bad_header.display().to_string();
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (vec!["--volume", &raw_s, "--raw", "8,8,8,u8"], "bytes"),
+        (vec!["--volume", &nan_s, "--raw", "2,2,2,f32"], "NaN"),
+        (vec!["--volume", &bad_s], "bad.nii"),
+        (vec!["--volume", "ml:abc"], "ml:N"),
+    ];
+    for (args, needle) in cases {
+        let mut all = vec!["render", "--filter", "bcc7", "--size", "8"];
+        all.extend(args.iter().copied());
+        let out = boxforge(&all);
+        assert_eq!(out.status.code(), Some(2), "{all:?}: {}", String::from_utf8_lossy(&out.stderr));
+        let err = String::from_utf8(out.stderr).unwrap();
+        assert_eq!(err.trim_end().lines().count(), 1, "{all:?}: {err}");
+        assert!(err.contains(needle), "{all:?}: expected '{needle}' in {err}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
