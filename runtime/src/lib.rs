@@ -2,7 +2,9 @@
 //! the generated shaders checked against the exact evaluator, isosurface
 //! images out.
 
+pub mod bench;
 pub mod gpu;
+pub mod prefilter;
 pub mod render;
 pub mod scene;
 pub mod upload;

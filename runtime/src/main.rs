@@ -138,6 +138,38 @@ enum Command {
         #[arg(long)]
         adapter: Option<String>,
     },
+    /// Benchmarks: evaluation throughput per filter x layout x variant with
+    /// ratios, rendering, gradients, quality. Writes docs/BENCHMARKS.md with --markdown.
+    Bench {
+        /// Comma-separated filters (default: the 3D catalog filters).
+        #[arg(long, value_delimiter = ',')]
+        filters: Vec<String>,
+        /// A seconds-long smoke run (numbers not meaningful).
+        #[arg(long)]
+        smoke: bool,
+        /// Skip the naive variant (its shaders compile slowly on lavapipe).
+        #[arg(long)]
+        no_naive: bool,
+        /// Skip the quality section.
+        #[arg(long)]
+        no_quality: bool,
+        #[arg(long)]
+        json: bool,
+        /// Write the report as Markdown (e.g. docs/BENCHMARKS.md).
+        #[arg(long)]
+        markdown: Option<std::path::PathBuf>,
+        /// A WGSL file with an evaluation function `fn NAME(p: vec3<f32>) -> f32`
+        /// to time beside the generated module of --like (it is appended to
+        /// that module, so it can use its bindings and `<filter>_fetch`).
+        #[arg(long, requires_all = ["entry", "like"])]
+        wgsl: Option<String>,
+        #[arg(long)]
+        entry: Option<String>,
+        #[arg(long)]
+        like: Option<String>,
+        #[arg(long)]
+        adapter: Option<String>,
+    },
     /// List the built-in catalog.
     List,
 }
@@ -232,6 +264,38 @@ fn run(cli: Cli) -> Result<(), Failure> {
                 frame.ms_per_frame,
                 frame.empty_blocks * 100.0
             );
+            Ok(())
+        }
+        Command::Bench { filters, smoke, no_naive, no_quality, json, markdown, wgsl, entry, like, adapter } => {
+            use boxforge_runtime::bench;
+            let mut o = if smoke { bench::BenchOptions::smoke() } else { bench::BenchOptions::full() };
+            if !filters.is_empty() {
+                o.filters = filters;
+            }
+            o.naive &= !no_naive;
+            o.quality &= !no_quality;
+            if let (Some(w), Some(e), Some(l)) = (wgsl, entry, like) {
+                o.external = Some(bench::External { wgsl: w, entry: e, like: l });
+            }
+            let gpu = Gpu::new(adapter.as_deref()).map_err(|e| Failure(e.to_string()))?;
+            eprintln!("benchmarking on {}", gpu.describe());
+            let started = std::time::Instant::now();
+            let progress = |m: &str| eprintln!("[{:>6.1} s] {m}", started.elapsed().as_secs_f64());
+            let report = bench::run(&gpu, &o, &progress).map_err(Failure)?;
+            let mut cmd = String::from("boxforge bench");
+            if smoke {
+                cmd.push_str(" --smoke");
+            }
+            if let Some(m) = &markdown {
+                cmd.push_str(&format!(" --markdown {}", m.display()));
+                boxforge::output::write_atomic(m, bench::markdown(&report, &cmd).as_bytes())?;
+                eprintln!("wrote {}", m.display());
+            }
+            if json {
+                println!("{}", serde_json::to_string(&report).unwrap());
+            } else if markdown.is_none() {
+                println!("{}", bench::markdown(&report, &cmd));
+            }
             Ok(())
         }
         Command::Demo { out, size, adapter } => demo::run(&out, size, adapter.as_deref()).map_err(Failure),

@@ -1,0 +1,95 @@
+//! Quasi-interpolation prefilter on the device with the emitted
+//! `<f>_prefilter_main` kernel, and the same convolution on the CPU.
+
+use crate::gpu::{Gpu, GpuError};
+use crate::upload::{storage_entry, uniform_entry, DeviceVolume};
+use crate::volume::LatticeVolume;
+use boxforge::derive::Derivation;
+use boxforge::emit::{emit, EmitOptions, Layout};
+
+/// c_j = sum_k q_k f(j - k) at every lattice point of the box (clamped
+/// fetches at the border, like the shaders), on the CPU.
+pub fn prefilter_cpu(d: &Derivation, vol: &LatticeVolume) -> LatticeVolume {
+    let [nx, ny, nz] = vol.dims;
+    let taps: Vec<(Vec<i64>, f64)> = d.prefilter.taps.iter().map(|(k, w)| (k.clone(), w.to_f64())).collect();
+    let mut out = vol.clone();
+    for z in 0..nz {
+        for y in 0..ny {
+            for x in 0..nx {
+                let j = [x as i64, y as i64, z as i64];
+                let i = x + nx * (y + ny * z);
+                out.data[i] = if vol.is_lattice(&j) {
+                    taps.iter().map(|(k, w)| w * vol.get(&[j[0] - k[0], j[1] - k[1], j[2] - k[2]]) as f64).sum::<f64>()
+                        as f32
+                } else {
+                    0.0
+                };
+            }
+        }
+    }
+    out
+}
+
+/// The same with the emitted kernel on the device.
+pub fn prefilter_gpu(
+    gpu: &Gpu,
+    d: &Derivation,
+    vol: &LatticeVolume,
+    layout: Layout,
+) -> Result<LatticeVolume, GpuError> {
+    let name = &d.filter.name;
+    let module = emit(d, &EmitOptions { layout, command: "boxforge prefilter".into(), ..Default::default() })
+        .map_err(|e| GpuError::Runtime(e.to_string()))?;
+    let shader = gpu.compile(&module.file_name, &module.source)?;
+    let dev = &gpu.device;
+    let dv = DeviceVolume::new(gpu, vol, layout)?;
+    let out_binding = if layout == Layout::Packed { 2 } else { 1 };
+    let mut entries = dv.layout_entries(0, wgpu::ShaderStages::COMPUTE);
+    entries.push(storage_entry(out_binding, false));
+    entries.push(uniform_entry(out_binding + 1));
+    let bgl =
+        dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("prefilter"), entries: &entries });
+    let n = vol.data.len();
+    let out = gpu.storage_buffer("prefiltered", &vec![0u8; n * 4], true);
+    let [nx, ny, nz] = vol.dims;
+    let job: [i32; 8] = [0, 0, 0, 0, nx as i32, ny as i32, nz as i32, 1];
+    let job_buf = gpu.uniform_buffer("job", bytemuck::cast_slice(&job));
+    let mut bind = dv.bind_entries(0);
+    bind.push(wgpu::BindGroupEntry { binding: out_binding, resource: out.as_entire_binding() });
+    bind.push(wgpu::BindGroupEntry { binding: out_binding + 1, resource: job_buf.as_entire_binding() });
+    let bg =
+        dev.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("prefilter"), layout: &bgl, entries: &bind });
+    let pl = dev.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some("prefilter"),
+        bind_group_layouts: &[Some(&bgl)],
+        immediate_size: 0,
+    });
+    let pipeline = gpu.checked("prefilter pipeline", || {
+        dev.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("prefilter"),
+            layout: Some(&pl),
+            module: &shader,
+            entry_point: Some(&format!("{name}_prefilter_main")),
+            compilation_options: Default::default(),
+            cache: None,
+        })
+    })?;
+    let groups = (n as u32).div_ceil(64);
+    if groups > gpu.device.limits().max_compute_workgroups_per_dimension {
+        return Err(GpuError::Runtime(format!(
+            "volume of {n} points is too large for one prefilter dispatch on this device; split it or use a smaller volume"
+        )));
+    }
+    gpu.checked("prefilter dispatch", || {
+        let mut enc = dev.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("prefilter") });
+        {
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: None, timestamp_writes: None });
+            pass.set_pipeline(&pipeline);
+            pass.set_bind_group(0, &bg, &[]);
+            pass.dispatch_workgroups(groups, 1, 1);
+        }
+        gpu.queue.submit([enc.finish()]);
+    })?;
+    let data: Vec<f32> = bytemuck::cast_slice(&gpu.read_buffer(&out)?).to_vec();
+    Ok(LatticeVolume { lattice: vol.lattice.clone(), dims: vol.dims, data })
+}
