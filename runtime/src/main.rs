@@ -249,6 +249,8 @@ fn run(cli: Cli) -> Result<(), Failure> {
                 perspective,
                 skip: !no_skip,
                 step,
+                progress: true,
+                frames: 1,
                 ..RenderOptions::default()
             };
             eprintln!("rendering {} ({} samples) with {} on {} ...", volume, vol.samples(), f.name, gpu.describe());

@@ -26,6 +26,8 @@ pub struct RenderOptions {
     pub block: i32,
     /// Frames to time after one warm-up frame.
     pub frames: usize,
+    /// Render in bands of rows and report progress on stderr (for long renders).
+    pub progress: bool,
 }
 
 impl Default for RenderOptions {
@@ -41,6 +43,7 @@ impl Default for RenderOptions {
             step: 0.25,
             block: 4,
             frames: 3,
+            progress: false,
         }
     }
 }
@@ -243,22 +246,39 @@ pub fn render(
             wgpu::BindGroupEntry { binding: 2, resource: blocks_buf.as_entire_binding() },
         ],
     });
-    let frame = || -> Result<f64, GpuError> {
+    // One dispatch per frame, or bands of rows with a progress line.
+    let band = if o.progress { 32u32 } else { o.height };
+    let frame = |report: bool| -> Result<f64, GpuError> {
         let start = Instant::now();
-        let mut enc = dev.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("raycast") });
-        {
-            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: None, timestamp_writes: None });
-            pass.set_pipeline(&raycast);
-            pass.set_bind_group(0, &bg_s, &[]);
-            pass.set_bind_group(1, &bg_rc, &[]);
-            pass.dispatch_workgroups(o.width.div_ceil(8), o.height.div_ceil(8), 1);
+        let mut y0 = 0u32;
+        while y0 < o.height {
+            let rows = band.min(o.height - y0);
+            let mut p = params;
+            p.image[3] = y0 as i32;
+            gpu.queue.write_buffer(&params_buf, 0, bytemuck::bytes_of(&p));
+            let mut enc = dev.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("raycast") });
+            {
+                let mut pass =
+                    enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: None, timestamp_writes: None });
+                pass.set_pipeline(&raycast);
+                pass.set_bind_group(0, &bg_s, &[]);
+                pass.set_bind_group(1, &bg_rc, &[]);
+                pass.dispatch_workgroups(o.width.div_ceil(8), rows.div_ceil(8), 1);
+            }
+            gpu.queue.submit([enc.finish()]);
+            gpu.wait()?;
+            y0 += rows;
+            if report {
+                eprint!("\r  rendering {:>3}% ({:.1} s)", y0 * 100 / o.height, start.elapsed().as_secs_f64());
+            }
         }
-        gpu.queue.submit([enc.finish()]);
-        gpu.wait()?;
+        if report {
+            eprintln!();
+        }
         Ok(start.elapsed().as_secs_f64() * 1e3)
     };
-    gpu.checked("raycast warm-up", || frame())??;
-    let mut times: Vec<f64> = (0..o.frames.max(1)).map(|_| frame()).collect::<Result<_, _>>()?;
+    gpu.checked("raycast warm-up", || frame(o.progress))??;
+    let mut times: Vec<f64> = (0..o.frames.max(1)).map(|_| frame(false)).collect::<Result<_, _>>()?;
     times.sort_by(|a, b| a.total_cmp(b));
     let words: Vec<u32> = bytemuck::cast_slice(&gpu.read_buffer(&image)?).to_vec();
     let rgba = words.iter().flat_map(|w| w.to_le_bytes()).collect();
