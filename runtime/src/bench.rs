@@ -206,19 +206,48 @@ fn throughput(
     });
     let groups = n.div_ceil(64) as u32;
     let (gx, gy) = (groups.min(65535), groups.div_ceil(65535));
+    // GPU time from timestamp queries when the adapter has them, else wall
+    // time around submit + wait.
+    let queries = gpu.timestamps.then(|| {
+        let set =
+            dev.create_query_set(&wgpu::QuerySetDescriptor { label: None, ty: wgpu::QueryType::Timestamp, count: 2 });
+        let resolve = dev.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("timestamps"),
+            size: 16,
+            usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        (set, resolve)
+    });
     let run = || -> Result<f64, GpuError> {
         let start = Instant::now();
         let mut enc = dev.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
         {
-            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: None, timestamp_writes: None });
+            let timestamp_writes = queries.as_ref().map(|(set, _)| wgpu::ComputePassTimestampWrites {
+                query_set: set,
+                beginning_of_pass_write_index: Some(0),
+                end_of_pass_write_index: Some(1),
+            });
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: None, timestamp_writes });
             pass.set_pipeline(&pipeline);
             pass.set_bind_group(0, &bg0, &[]);
             pass.set_bind_group(1, &bg1, &[]);
             pass.dispatch_workgroups(gx, gy, 1);
         }
+        if let Some((set, resolve)) = &queries {
+            enc.resolve_query_set(set, 0..2, resolve, 0);
+        }
         gpu.queue.submit([enc.finish()]);
         gpu.wait()?;
-        Ok(start.elapsed().as_secs_f64())
+        let wall = start.elapsed().as_secs_f64();
+        if let Some((_, resolve)) = &queries {
+            let ts: Vec<u64> = bytemuck::cast_slice(&gpu.read_buffer(resolve)?).to_vec();
+            let gpu_s = ts[1].saturating_sub(ts[0]) as f64 * gpu.queue.get_timestamp_period() as f64 * 1e-9;
+            if gpu_s > 0.0 {
+                return Ok(gpu_s);
+            }
+        }
+        Ok(wall)
     };
     run()?; // warm-up (includes pipeline compilation on lavapipe)
     let mut t: Vec<f64> = (0..runs.max(1)).map(|_| run()).collect::<Result<_, _>>()?;
@@ -440,7 +469,11 @@ pub fn run(gpu: &Gpu, o: &BenchOptions, progress: &dyn Fn(&str)) -> Result<Bench
     Ok(BenchReport {
         machine: machine_info(),
         adapter: gpu.describe(),
-        timing: "wall time around submit + wait of one dispatch, median of the timed runs after a warm-up".into(),
+        timing: if gpu.timestamps {
+            "GPU time of one dispatch from timestamp queries (throughput rows), wall time around submit + wait (render rows); median of the timed runs after a warm-up".into()
+        } else {
+            "wall time around submit + wait of one dispatch, median of the timed runs after a warm-up".into()
+        },
         rows,
         gradient,
         quality,
