@@ -116,7 +116,7 @@ impl Derivation {
 }
 
 /// Value and gradient of sum c_e u^e.
-fn eval_poly_f64(exps: &[Vec<u32>], coeffs: &[f64], u: &[f64]) -> (f64, Vec<f64>) {
+pub(crate) fn eval_poly_f64(exps: &[Vec<u32>], coeffs: &[f64], u: &[f64]) -> (f64, Vec<f64>) {
     let s = u.len();
     let mut v = 0.0;
     let mut g = vec![0.0; s];

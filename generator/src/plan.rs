@@ -181,7 +181,7 @@ impl Plan {
             let q = &c.offsets[slot];
             let pos: IVec = (0..s).map(|i| base[i] + (0..s).map(|j| m[i][j] * q[j]).sum::<i64>()).collect();
             let v = data(&pos);
-            let (pv, pg) = poly_f64(&tab.exps, &tab.coeffs[*k], &u);
+            let (pv, pg) = crate::eval::eval_poly_f64(&tab.exps, &tab.coeffs[*k], &u);
             value += v * pv;
             for i in 0..s {
                 grad_u[i] += v * pg[i];
@@ -357,27 +357,6 @@ fn generic_candidates(d: &Derivation) -> Vec<Candidate> {
             offsets: vec![],
         })
         .collect()
-}
-
-/// Value and gradient of sum c_e u^e in f64.
-fn poly_f64(exps: &[Vec<u32>], coeffs: &[f64], u: &[f64]) -> (f64, Vec<f64>) {
-    let s = u.len();
-    let mut v = 0.0;
-    let mut g = vec![0.0; s];
-    for (e, &c) in exps.iter().zip(coeffs) {
-        if c == 0.0 {
-            continue;
-        }
-        v += c * (0..s).map(|i| u[i].powi(e[i] as i32)).product::<f64>();
-        for dd in 0..s {
-            if e[dd] > 0 {
-                g[dd] += c
-                    * e[dd] as f64
-                    * (0..s).map(|i| u[i].powi(if i == dd { e[i] as i32 - 1 } else { e[i] as i32 })).product::<f64>();
-            }
-        }
-    }
-    (v, g)
 }
 
 #[cfg(test)]

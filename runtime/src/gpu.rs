@@ -111,6 +111,55 @@ impl Gpu {
         }
     }
 
+    /// A compute pipeline with explicit bind group layouts (one per group).
+    pub fn pipeline(
+        &self,
+        label: &str,
+        shader: &wgpu::ShaderModule,
+        groups: &[&wgpu::BindGroupLayout],
+        entry: &str,
+    ) -> Result<wgpu::ComputePipeline, GpuError> {
+        let layouts: Vec<Option<&wgpu::BindGroupLayout>> = groups.iter().map(|g| Some(*g)).collect();
+        let layout = self.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some(label),
+            bind_group_layouts: &layouts,
+            immediate_size: 0,
+        });
+        self.checked(&format!("{label} pipeline"), || {
+            self.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(label),
+                layout: Some(&layout),
+                module: shader,
+                entry_point: Some(entry),
+                compilation_options: Default::default(),
+                cache: None,
+            })
+        })
+    }
+
+    /// Records one dispatch of `pipeline` with bind groups 0.. and submits it.
+    pub fn dispatch(
+        &self,
+        label: &str,
+        pipeline: &wgpu::ComputePipeline,
+        bind_groups: &[&wgpu::BindGroup],
+        groups: (u32, u32, u32),
+    ) -> Result<(), GpuError> {
+        self.checked(&format!("{label} dispatch"), || {
+            let mut enc = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
+            {
+                let mut pass =
+                    enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(label), timestamp_writes: None });
+                pass.set_pipeline(pipeline);
+                for (i, bg) in bind_groups.iter().enumerate() {
+                    pass.set_bind_group(i as u32, *bg, &[]);
+                }
+                pass.dispatch_workgroups(groups.0, groups.1, groups.2);
+            }
+            self.queue.submit([enc.finish()]);
+        })
+    }
+
     pub fn storage_buffer(&self, label: &str, bytes: &[u8], writable: bool) -> wgpu::Buffer {
         let mut usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
         if writable {

@@ -59,37 +59,14 @@ pub fn prefilter_gpu(
     bind.push(wgpu::BindGroupEntry { binding: out_binding + 1, resource: job_buf.as_entire_binding() });
     let bg =
         dev.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("prefilter"), layout: &bgl, entries: &bind });
-    let pl = dev.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-        label: Some("prefilter"),
-        bind_group_layouts: &[Some(&bgl)],
-        immediate_size: 0,
-    });
-    let pipeline = gpu.checked("prefilter pipeline", || {
-        dev.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("prefilter"),
-            layout: Some(&pl),
-            module: &shader,
-            entry_point: Some(&format!("{name}_prefilter_main")),
-            compilation_options: Default::default(),
-            cache: None,
-        })
-    })?;
+    let pipeline = gpu.pipeline("prefilter", &shader, &[&bgl], &format!("{name}_prefilter_main"))?;
     let groups = (n as u32).div_ceil(64);
     if groups > gpu.device.limits().max_compute_workgroups_per_dimension {
         return Err(GpuError::Runtime(format!(
             "volume of {n} points is too large for one prefilter dispatch on this device; split it or use a smaller volume"
         )));
     }
-    gpu.checked("prefilter dispatch", || {
-        let mut enc = dev.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("prefilter") });
-        {
-            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: None, timestamp_writes: None });
-            pass.set_pipeline(&pipeline);
-            pass.set_bind_group(0, &bg, &[]);
-            pass.dispatch_workgroups(groups, 1, 1);
-        }
-        gpu.queue.submit([enc.finish()]);
-    })?;
+    gpu.dispatch("prefilter", &pipeline, &[&bg], (groups, 1, 1))?;
     let data: Vec<f32> = bytemuck::cast_slice(&gpu.read_buffer(&out)?).to_vec();
     Ok(LatticeVolume { lattice: vol.lattice.clone(), dims: vol.dims, data })
 }

@@ -180,31 +180,8 @@ pub fn render(
     bind0.push(wgpu::BindGroupEntry { binding: out_binding + 1, resource: job_buf.as_entire_binding() });
     let bg_mm =
         dev.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("minmax"), layout: &bgl_mm, entries: &bind0 });
-    let pl_mm = dev.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-        label: Some("minmax"),
-        bind_group_layouts: &[Some(&bgl_mm)],
-        immediate_size: 0,
-    });
-    let minmax = gpu.checked("minmax pipeline", || {
-        dev.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("minmax"),
-            layout: Some(&pl_mm),
-            module: &shader,
-            entry_point: Some(&format!("{name}_minmax_main")),
-            compilation_options: Default::default(),
-            cache: None,
-        })
-    })?;
-    gpu.checked("minmax dispatch", || {
-        let mut enc = dev.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("minmax") });
-        {
-            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: None, timestamp_writes: None });
-            pass.set_pipeline(&minmax);
-            pass.set_bind_group(0, &bg_mm, &[]);
-            pass.dispatch_workgroups((nblocks as u32).div_ceil(64), 1, 1);
-        }
-        gpu.queue.submit([enc.finish()]);
-    })?;
+    let minmax = gpu.pipeline("minmax", &shader, &[&bgl_mm], &format!("{name}_minmax_main"))?;
+    gpu.dispatch("minmax", &minmax, &[&bg_mm], ((nblocks as u32).div_ceil(64), 1, 1))?;
     let bounds: Vec<f32> = bytemuck::cast_slice(&gpu.read_buffer(&blocks_buf)?).to_vec();
     let empty = bounds.chunks(2).filter(|b| o.iso < b[0] || o.iso > b[1]).count() as f64 / nblocks.max(1) as f64;
 
@@ -217,21 +194,7 @@ pub fn render(
         label: Some("raycast"),
         entries: &[uniform_entry(0), storage_entry(1, false), storage_entry(2, true)],
     });
-    let pl_rc = dev.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-        label: Some("raycast"),
-        bind_group_layouts: &[Some(&bgl_s), Some(&bgl_rc)],
-        immediate_size: 0,
-    });
-    let raycast = gpu.checked("raycast pipeline", || {
-        dev.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("raycast"),
-            layout: Some(&pl_rc),
-            module: &shader,
-            entry_point: Some(&format!("{name}_raycast_main")),
-            compilation_options: Default::default(),
-            cache: None,
-        })
-    })?;
+    let raycast = gpu.pipeline("raycast", &shader, &[&bgl_s, &bgl_rc], &format!("{name}_raycast_main"))?;
     let pixels = (o.width * o.height) as usize;
     let params_buf = gpu.uniform_buffer("params", bytemuck::bytes_of(&params));
     let image = gpu.storage_buffer("image", &vec![0u8; pixels * 4], true);

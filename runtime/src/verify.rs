@@ -128,21 +128,7 @@ pub fn gpu_eval_source(
         label: Some("io"),
         entries: &[storage_entry(0, true), storage_entry(1, false), storage_entry(2, false)],
     });
-    let layout = dev.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-        label: Some("verify"),
-        bind_group_layouts: &[Some(&bgl0), Some(&bgl1)],
-        immediate_size: 0,
-    });
-    let pipeline = gpu.checked("verify pipeline", || {
-        dev.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("verify"),
-            layout: Some(&layout),
-            module: &shader,
-            entry_point: Some("verify_main"),
-            compilation_options: Default::default(),
-            cache: None,
-        })
-    })?;
+    let pipeline = gpu.pipeline("verify", &shader, &[&bgl0, &bgl1], "verify_main")?;
     let n = points.len();
     let pts = gpu.storage_buffer("points", bytemuck::cast_slice(points), false);
     let grad = gpu.storage_buffer("grad", &vec![0u8; n * 16], true);
@@ -163,18 +149,7 @@ pub fn gpu_eval_source(
     });
     let groups = n.div_ceil(64) as u32;
     let (gx, gy) = (groups.min(65535), groups.div_ceil(65535));
-    gpu.checked("verify dispatch", || {
-        let mut enc = dev.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("verify") });
-        {
-            let mut pass =
-                enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("verify"), timestamp_writes: None });
-            pass.set_pipeline(&pipeline);
-            pass.set_bind_group(0, &bg0, &[]);
-            pass.set_bind_group(1, &bg1, &[]);
-            pass.dispatch_workgroups(gx, gy, 1);
-        }
-        gpu.queue.submit([enc.finish()]);
-    })?;
+    gpu.dispatch("verify", &pipeline, &[&bg0, &bg1], (gx, gy, 1))?;
     let g: Vec<[f32; 4]> = bytemuck::cast_slice(&gpu.read_buffer(&grad)?).to_vec();
     let v: Vec<f32> = bytemuck::cast_slice(&gpu.read_buffer(&value)?).to_vec();
     Ok((v, g))
