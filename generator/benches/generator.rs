@@ -4,9 +4,9 @@
 //! Run with `cargo bench -p boxforge --bench generator` (append `-- --quick`
 //! for a faster, rougher pass, or a filter name to select benchmarks).
 
+use boxforge::build::report::Report;
 use boxforge::derive::Derivation;
 use boxforge::emit::{emit, EmitOptions, Layout, Variant};
-use boxforge::report::Report;
 use boxforge::spec::{catalog, Filter};
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, SamplingMode, Throughput};
 use std::hint::black_box;

@@ -1,7 +1,7 @@
-use boxforge::arrangement::Arrangement;
-use boxforge::lattice::Lattice;
+use boxforge::derive::arrangement::Arrangement;
+use boxforge::derive::spline::SplineFacts;
+use boxforge::spec::lattice::Lattice;
 use boxforge::spec::{Caps, Filter};
-use boxforge::spline::SplineFacts;
 fn main() {
     let l = Lattice::builtin("cc").unwrap();
     let dirs = vec![

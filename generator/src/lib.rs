@@ -1,34 +1,34 @@
 //! boxforge: exact box-spline derivations and branch-free WGSL generation.
 //!
-//! The pipeline reads like a compiler: [`spec`] (input) → [`spline`]
-//! (direction-matrix facts) → [`arrangement`] (knot planes, cells) →
-//! [`pieces`] (exact polynomials) → [`symmetry`] (reference pieces) →
-//! [`stencil`], [`bb`] and [`prefilter`] → [`eval`] (evaluator).
+//! The crate reads like a compiler, one folder per stage, plain data between
+//! them (see `docs/ARCHITECTURE.md`):
+//!
+//! ```text
+//! spec ──► derive ──► eval        (exact / f64 evaluators, de Boor oracle)
+//!  TOML      facts, arrangement, pieces, symmetry, stencils, BB, prefilter
+//!             └────► emit ──► validate ──► build
+//!                    plan, fetch order, forms, WGSL   naga   Builder, files, reports
+//! ```
+//!
+//! * [`spec`]: the input: spec files, lattices, caps, the built-in catalog.
+//! * [`derive`]: everything derived exactly from the direction matrix.
+//! * [`eval`]: evaluation of a derived spline (exact, f64) and the independent
+//!   de Boor oracle the tests compare against.
+//! * [`emit`]: branch-free point location, fetch order, evaluation forms and
+//!   the WGSL writer.
+//! * [`validate`]: naga validation and the branch-free / table-free proof.
+//! * [`build`]: the `build.rs` [`Builder`], atomic file output and reports.
+//! * [`math`]: exact rationals, linear algebra, polynomials, polytopes.
 
-pub mod arrangement;
-pub mod bb;
-pub mod builder;
+pub mod build;
 pub mod derive;
 pub mod emit;
 pub mod error;
 pub mod eval;
-pub mod exact;
-pub mod fetch_order;
-pub mod lattice;
-pub mod linalg;
-pub mod oracle;
-pub mod output;
-pub mod pieces;
-pub mod plan;
-pub mod poly;
-pub mod polytope;
-pub mod prefilter;
-pub mod report;
+pub mod math;
 pub mod spec;
-pub mod spline;
-pub mod symmetry;
 pub mod validate;
 
-pub use builder::Builder;
+pub use build::builder::Builder;
 pub use error::{Error, Result};
 pub use spec::Filter;

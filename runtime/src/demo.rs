@@ -1,8 +1,8 @@
 //! `boxforge demo`: the README's main job.
 
+use boxforge::build::output::{generated_files, write_files, ALL_LAYOUTS, ALL_VARIANTS};
 use boxforge::derive::Derivation;
 use boxforge::emit::{Layout, Variant};
-use boxforge::output::{generated_files, write_files, ALL_LAYOUTS, ALL_VARIANTS};
 use boxforge_runtime::gpu::Gpu;
 use boxforge_runtime::render::{self, valid_box, RenderOptions};
 use boxforge_runtime::scene::{self, matched_edge, Conversion};

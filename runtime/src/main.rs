@@ -1,10 +1,10 @@
 //! `boxforge`: derive, inspect (and later generate, verify, render, bench)
 //! box-spline filters.
 
+use boxforge::build::output::{ALL_LAYOUTS, ALL_VARIANTS};
+use boxforge::build::report::Report;
 use boxforge::derive::Derivation;
 use boxforge::emit::{Layout, Variant};
-use boxforge::output::{ALL_LAYOUTS, ALL_VARIANTS};
-use boxforge::report::Report;
 use boxforge::spec;
 use boxforge_runtime::gpu::Gpu;
 use boxforge_runtime::render::{self, RenderOptions};
@@ -227,7 +227,7 @@ fn run(cli: Cli) -> Result<(), Failure> {
                 return Err(Failure(format!("{} is {}D: render needs a 3D filter", f.name, d.facts.dim)));
             }
             let lat = match lattice {
-                Some(l) => boxforge::lattice::Lattice::builtin(&l)?,
+                Some(l) => boxforge::spec::lattice::Lattice::builtin(&l)?,
                 None => f.lattice.clone(),
             };
             if lat != f.lattice {
@@ -290,7 +290,7 @@ fn run(cli: Cli) -> Result<(), Failure> {
             }
             if let Some(m) = &markdown {
                 cmd.push_str(&format!(" --markdown {}", m.display()));
-                boxforge::output::write_atomic(m, bench::markdown(&report, &cmd).as_bytes())?;
+                boxforge::build::output::write_atomic(m, bench::markdown(&report, &cmd).as_bytes())?;
                 eprintln!("wrote {}", m.display());
             }
             if json {
@@ -354,7 +354,7 @@ fn run(cli: Cli) -> Result<(), Failure> {
             let derivations = derive_all(&resolved, |d| d)?;
             let mut stale = Vec::new();
             for d in &derivations {
-                let files = boxforge::output::generated_files(d, &command, &layouts, &variants)?;
+                let files = boxforge::build::output::generated_files(d, &command, &layouts, &variants)?;
                 if check {
                     for (name, text) in &files {
                         if std::fs::read_to_string(out.join(name)).ok().as_deref() != Some(text.as_str()) {
@@ -362,7 +362,7 @@ fn run(cli: Cli) -> Result<(), Failure> {
                         }
                     }
                 } else {
-                    let written = boxforge::output::write_files(&out, &files)?;
+                    let written = boxforge::build::output::write_files(&out, &files)?;
                     let list: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
                     eprintln!("{:<16} {}", d.filter.name, list.join(", "));
                 }

@@ -3,7 +3,7 @@
 //! resampled at a matched sample count.
 
 use crate::volume::{LatticeVolume, Volume, VolumeError};
-use boxforge::lattice::Lattice;
+use boxforge::spec::lattice::Lattice;
 use std::path::Path;
 
 /// How a Cartesian volume becomes data on a non-Cartesian lattice.

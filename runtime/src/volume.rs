@@ -7,7 +7,7 @@
 //! infallible accessors, as documented neutral values).
 
 use boxforge::emit::{coset_of, coset_pivots};
-use boxforge::lattice::Lattice;
+use boxforge::spec::lattice::Lattice;
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 

@@ -3,8 +3,8 @@
 //! pseudo-random lattice data.
 
 use boxforge::derive::Derivation;
-use boxforge::exact::Q;
-use boxforge::linalg::{IVec, QVec};
+use boxforge::math::exact::Q;
+use boxforge::math::linalg::{IVec, QVec};
 
 /// SplitMix64: small, deterministic, good enough for test inputs.
 pub struct Rng(pub u64);

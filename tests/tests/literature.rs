@@ -47,8 +47,8 @@ fn fcc6_kim_entezari_peters() {
         });
         assert_eq!(cube_corners.count(), 5, "all vertices are cube corners");
         let volumes: Vec<_> = cells.iter().map(|c| c.polytope.volume()).collect();
-        let small = volumes.iter().filter(|v| **v == boxforge::exact::Q::frac(1, 6)).count();
-        let big = volumes.iter().filter(|v| **v == boxforge::exact::Q::frac(1, 3)).count();
+        let small = volumes.iter().filter(|v| **v == boxforge::math::exact::Q::frac(1, 6)).count();
+        let big = volumes.iter().filter(|v| **v == boxforge::math::exact::Q::frac(1, 3)).count();
         assert_eq!((small, big), (4, 1), "4 corner tetrahedra of volume 1/6, 1 central of 1/3");
     }
     assert_eq!(d.references.len(), 2, "two symmetry classes");
@@ -64,14 +64,14 @@ fn tensor_product_and_2d_facts() {
     let zp = derive("zp");
     assert_eq!((zp.facts.degree, zp.facts.approximation_order, zp.facts.continuity), (2, 3, 1));
     // ZP's axis knot lines sit at 1/2 + Z, so the grid offset is (1/2, 1/2).
-    assert!(zp.arrangement.grid_offset.iter().all(|o| *o == boxforge::exact::Q::frac(1, 2)));
+    assert!(zp.arrangement.grid_offset.iter().all(|o| *o == boxforge::math::exact::Q::frac(1, 2)));
     let c = derive("courant");
     assert_eq!((c.facts.degree, c.max_stencil(), c.arrangement.cells.len()), (1, 3, 2));
 }
 
 #[test]
 fn cells_tile_each_cube() {
-    use boxforge::exact::Q;
+    use boxforge::math::exact::Q;
     for d in boxforge_tests::all_catalog() {
         for ci in 0..d.arrangement.classes.len() {
             let v: Q = d.arrangement.cells.iter().filter(|c| c.class == ci).map(|c| c.polytope.volume()).sum();

@@ -2,8 +2,8 @@
 //! an independent oracle (de Boor's recurrence) at random points strictly
 //! inside cells, for every catalog filter.
 
-use boxforge::exact::Q;
-use boxforge::oracle::Oracle;
+use boxforge::eval::oracle::Oracle;
+use boxforge::math::exact::Q;
 use boxforge_tests::{all_catalog, data_at, random_interior_point, Rng};
 
 const POINTS: usize = 200;

@@ -1,8 +1,8 @@
 //! Partition of unity, and exact reproduction of every polynomial of degree
 //! below the approximation order after prefiltering, for every catalog filter.
 
-use boxforge::exact::Q;
-use boxforge::linalg::QVec;
+use boxforge::math::exact::Q;
+use boxforge::math::linalg::QVec;
 use boxforge_tests::{all_catalog, random_interior_point, Rng};
 
 /// A random polynomial of total degree <= deg in s variables: (exponents, coefficient).

@@ -4,9 +4,9 @@
 //! Raise the case count with PROPTEST_CASES.
 
 use boxforge::derive::Derivation;
-use boxforge::exact::Q;
-use boxforge::lattice::{Lattice, BUILTIN_LATTICES};
-use boxforge::oracle::Oracle;
+use boxforge::eval::oracle::Oracle;
+use boxforge::math::exact::Q;
+use boxforge::spec::lattice::{Lattice, BUILTIN_LATTICES};
 use boxforge::spec::{Caps, Filter};
 use boxforge_tests::{data_at, random_interior_point, Rng};
 use proptest::prelude::*;

@@ -12,11 +12,11 @@ fn shaders_out_is_fresh() {
     let mut expected = std::collections::BTreeSet::new();
     let mut stale = Vec::new();
     for d in boxforge_tests::all_catalog() {
-        let files = boxforge::output::generated_files(
+        let files = boxforge::build::output::generated_files(
             &d,
             command,
-            &boxforge::output::ALL_LAYOUTS,
-            &boxforge::output::ALL_VARIANTS,
+            &boxforge::build::output::ALL_LAYOUTS,
+            &boxforge::build::output::ALL_VARIANTS,
         )
         .unwrap();
         for (name, text) in files {

@@ -2,8 +2,8 @@
 //! the fast variant is proven branch-free and table-free and fetches exactly
 //! its planned samples; the naive variant fails the proof (so it can fail).
 
+use boxforge::build::output::{ALL_LAYOUTS, ALL_VARIANTS};
 use boxforge::emit::{emit, EmitOptions};
-use boxforge::output::{ALL_LAYOUTS, ALL_VARIANTS};
 use boxforge::validate::{check_branch_free, validate_wgsl};
 use boxforge_tests::all_catalog;
 

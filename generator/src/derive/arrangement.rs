@@ -1,11 +1,11 @@
 //! Knot planes of the shift-invariant space and the evaluation cells: every
 //! cube class cut by the knot planes that cross it.
 
-use crate::exact::Q;
-use crate::lattice::Lattice;
-use crate::linalg::{dot_i, dot_iq, sub_i, to_q, IVec, QVec};
-use crate::polytope::Polytope;
-use crate::spline::SplineFacts;
+use crate::derive::spline::SplineFacts;
+use crate::math::exact::Q;
+use crate::math::linalg::{dot_i, dot_iq, sub_i, to_q, IVec, QVec};
+use crate::math::polytope::Polytope;
+use crate::spec::lattice::Lattice;
 use serde::Serialize;
 use std::collections::HashMap;
 
@@ -21,7 +21,7 @@ pub struct KnotFamily {
 
 impl KnotFamily {
     pub fn new(normal: &[i64], lattice: &Lattice, center: &[Q]) -> KnotFamily {
-        let period = lattice.generators.iter().fold(0, |g, col| crate::exact::gcd(g, dot_i(normal, col)));
+        let period = lattice.generators.iter().fold(0, |g, col| crate::math::exact::gcd(g, dot_i(normal, col)));
         let g = Q::int(period);
         let a = -dot_iq(normal, center);
         let offset = &a - &(&(&a / &g).floor() * &g);
@@ -169,8 +169,8 @@ impl Arrangement {
                     if face.len() < s {
                         continue;
                     }
-                    let d: Vec<QVec> = face[1..].iter().map(|v| crate::linalg::sub_q(v, &face[0])).collect();
-                    if crate::linalg::rank(&d) < s - 1 {
+                    let d: Vec<QVec> = face[1..].iter().map(|v| crate::math::linalg::sub_q(v, &face[0])).collect();
+                    if crate::math::linalg::rank(&d) < s - 1 {
                         continue;
                     }
                     let mut e = vec![0; s];
@@ -183,7 +183,8 @@ impl Arrangement {
                     nz[axis] += if upper { 1 } else { -1 };
                     let (nci, l) = self.locate_cube(lattice, &nz);
                     let shift = to_q(&l);
-                    let key = facet_key(&face.iter().map(|v| crate::linalg::sub_q(v, &shift)).collect::<Vec<_>>());
+                    let key =
+                        facet_key(&face.iter().map(|v| crate::math::linalg::sub_q(v, &shift)).collect::<Vec<_>>());
                     let neighbour = faces.get(&(nci, key)).map(|&j| (j, ()));
                     if let Some((j, _)) = neighbour {
                         let (a, b) = (find(&mut parent, i), find(&mut parent, j));

@@ -2,9 +2,9 @@
 //! Sizes here are tiny (a unit cube cut by a few dozen planes), so vertex
 //! enumeration by s-subsets of facets is simple and fast enough.
 
-use crate::exact::Q;
-use crate::linalg::{dot_q, rank, solve, sub_q, QVec};
-use crate::spline::subsets;
+use crate::math::exact::Q;
+use crate::math::linalg::{dot_q, rank, solve, sub_q, QVec};
+use crate::math::subsets;
 
 /// The half-space n . x <= b.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -230,10 +230,10 @@ fn volume_of(vertices: &[QVec], facets: &[HalfSpace]) -> Q {
         let on: Vec<QVec> = vertices.iter().filter(|v| f.slack(v).is_zero()).cloned().collect();
         for simplex in triangulate_facet(&on, s) {
             let rows: Vec<QVec> = simplex.iter().map(|v| sub_q(v, &c)).collect();
-            total += crate::linalg::det(&rows).abs();
+            total += crate::math::linalg::det(&rows).abs();
         }
     }
-    total / crate::exact::factorial(s as u32)
+    total / crate::math::exact::factorial(s as u32)
 }
 
 /// Triangulates a convex (s-1)-dimensional point set in R^s into (s-1)-simplices
@@ -315,7 +315,7 @@ fn is_boundary_flat(pts: &[QVec], flat: &[QVec], apex: &QVec, s: usize) -> bool 
     // Normal of the facet plane: null vector of (dirs + apex - f0).
     let mut span = dirs.clone();
     span.push(sub_q(apex, f0));
-    let normal = crate::linalg::nullspace(&span).into_iter().next();
+    let normal = crate::math::linalg::nullspace(&span).into_iter().next();
     let Some(normal) = normal else { return false };
     let side = |p: &QVec| {
         let mut m = dirs.clone();
@@ -324,7 +324,7 @@ fn is_boundary_flat(pts: &[QVec], flat: &[QVec], apex: &QVec, s: usize) -> bool 
         if m.len() != s {
             return 0;
         }
-        crate::linalg::det(&m).signum()
+        crate::math::linalg::det(&m).signum()
     };
     let sa = side(apex);
     pts.iter().all(|p| {

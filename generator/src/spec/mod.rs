@@ -9,9 +9,11 @@
 //! max_degree = 12
 //! ```
 
+pub mod lattice;
+
 use crate::error::{Error, Result};
-use crate::lattice::Lattice;
-use crate::linalg::{rank_of_vectors, IVec};
+use crate::math::linalg::{rank_of_vectors, IVec};
+use crate::spec::lattice::Lattice;
 use serde::Deserialize;
 use std::path::Path;
 

@@ -2,20 +2,30 @@
 //! orbits, reference pieces with stencils, polynomials and BB form, and the
 //! prefilter. Everything is exact.
 
-use crate::arrangement::Arrangement;
-use crate::bb::BbForm;
+pub mod arrangement;
+pub mod bb;
+pub mod f64_tables;
+pub mod pieces;
+pub mod prefilter;
+pub mod spline;
+pub mod stencil;
+pub mod symmetry;
+
+use crate::derive::arrangement::Arrangement;
+use crate::derive::bb::BbForm;
+use crate::derive::pieces::PpForm;
+use crate::derive::prefilter::{derive_prefilter, Prefilter};
+use crate::derive::spline::SplineFacts;
+use crate::derive::symmetry::{point_group, SignedPerm};
 use crate::error::{Error, Result};
-use crate::exact::Q;
-use crate::lattice::Lattice;
-use crate::linalg::{dot_iq, mat_vec_i, mat_vec_q, sub_i, sub_q, to_q, IVec, QVec};
-use crate::pieces::PpForm;
-use crate::poly::Poly;
-use crate::prefilter::{derive_prefilter, Prefilter};
+use crate::math::exact::Q;
+use crate::math::linalg::{mat_vec_i, mat_vec_q, sub_i, sub_q, to_q, IVec, QVec};
+use crate::math::poly::Poly;
+use crate::spec::lattice::Lattice;
 use crate::spec::Filter;
-use crate::spline::SplineFacts;
-use crate::symmetry::{point_group, SignedPerm};
 use std::collections::HashMap;
 use std::sync::OnceLock;
+pub use stencil::stencil_points;
 
 /// g(x) = R x + t maps a cell onto its reference cell.
 #[derive(Clone, Debug)]
@@ -35,7 +45,7 @@ impl CellMap {
 
     /// g^-1(k) = R^T (k - t) for integer points.
     pub fn inverse_point(&self, k: &[i64]) -> IVec {
-        let rt = crate::symmetry::inverse(&self.rotation);
+        let rt = crate::derive::symmetry::inverse(&self.rotation);
         mat_vec_i(&rt, &sub_i(k, &self.translation))
     }
 }
@@ -79,7 +89,7 @@ pub struct Derivation {
     pub maps: Vec<CellMap>,
     pub references: Vec<ReferencePiece>,
     pub prefilter: Prefilter,
-    pub(crate) f64_cache: std::sync::OnceLock<crate::eval::F64Tables>,
+    pub(crate) f64_cache: std::sync::OnceLock<f64_tables::F64Tables>,
 }
 
 impl Derivation {
@@ -142,7 +152,7 @@ impl Derivation {
             let polys: Vec<Poly> = r
                 .stencil
                 .iter()
-                .map(|k| self.pp.local_piece(&origin, &c.interior, &crate::linalg::add_i(&r.corner, k)))
+                .map(|k| self.pp.local_piece(&origin, &c.interior, &crate::math::linalg::add_i(&r.corner, k)))
                 .collect();
             let bb = r.is_simplex.then(|| {
                 let local: Vec<QVec> = r.vertices.iter().map(|v| sub_q(v, &origin)).collect();
@@ -170,53 +180,6 @@ impl Derivation {
         let pts = stencil_points(&self.facts, &self.filter.lattice, &c.interior);
         let polys = pts.iter().map(|j| self.pp.local_piece(&origin, &c.interior, j)).collect();
         (pts.iter().map(|j| sub_i(j, z)).collect(), polys)
-    }
-}
-
-/// Lattice points j with x - j strictly inside the support of phi (x must be
-/// off the knot planes, e.g. a cell's interior point). The zonotope test runs
-/// in f64 and falls back to exact arithmetic near its boundary.
-pub fn stencil_points(facts: &SplineFacts, lattice: &Lattice, x: &[Q]) -> Vec<IVec> {
-    let s = facts.dim;
-    let half: Vec<Q> = (0..s).map(|i| Q::frac(facts.directions.iter().map(|d| d[i].abs()).sum(), 2)).collect();
-    let lo: IVec = (0..s).map(|i| (&x[i] - &half[i]).floor_i64().unwrap()).collect();
-    let hi: IVec = (0..s).map(|i| (&x[i] + &half[i]).floor_i64().unwrap() + 1).collect();
-    let planes: Vec<(&IVec, f64, f64)> =
-        facts.normals.iter().map(|n| (n, dot_iq(n, x).to_f64(), facts.support_half_width(n).to_f64())).collect();
-    let mut out = Vec::new();
-    let mut j = lo.clone();
-    loop {
-        let mut inside = true;
-        let mut unsure = false;
-        for (n, nx, h) in &planes {
-            let m = h - (nx - crate::linalg::dot_i(n, &j) as f64).abs();
-            if m < -1e-9 {
-                inside = false;
-                break;
-            }
-            if m <= 1e-9 {
-                unsure = true;
-            }
-        }
-        if inside && unsure {
-            let y: QVec = x.iter().zip(&j).map(|(a, b)| a - &Q::int(*b)).collect();
-            inside = facts.in_open_support(&y);
-        }
-        if inside && lattice.contains(&j) {
-            out.push(j.clone());
-        }
-        let mut k = 0;
-        loop {
-            if k == s {
-                return out;
-            }
-            j[k] += 1;
-            if j[k] <= hi[k] {
-                break;
-            }
-            j[k] = lo[k];
-            k += 1;
-        }
     }
 }
 
@@ -261,7 +224,7 @@ fn cell_maps(arr: &Arrangement, lattice: &Lattice, group: &[SignedPerm]) -> Vec<
                 let t: IVec = l.iter().map(|x| -x).collect();
                 let tq = to_q(&t);
                 let mut verts: Vec<QVec> =
-                    c.polytope.vertices.iter().map(|v| crate::linalg::add_q(&mat_vec_q(&rq, v), &tq)).collect();
+                    c.polytope.vertices.iter().map(|v| crate::math::linalg::add_q(&mat_vec_q(&rq, v), &tq)).collect();
                 verts.sort();
                 let j = *index.get(&(ci, verts)).expect("symmetries map cells onto cells");
                 if j < best_cell {

@@ -9,11 +9,11 @@
 //! y = R w + t onto a reference piece; the fetch for stencil point K of the
 //! reference is at b + M R^T (K - t).
 
+use crate::derive::symmetry::{inverse, SignedPerm};
 use crate::derive::Derivation;
-use crate::exact::Q;
-use crate::linalg::{mat_vec_i, sub_i, to_q, IVec, QVec};
-use crate::polytope::{HalfSpace, Polytope};
-use crate::symmetry::{inverse, SignedPerm};
+use crate::math::exact::Q;
+use crate::math::linalg::{mat_vec_i, sub_i, to_q, IVec, QVec};
+use crate::math::polytope::{HalfSpace, Polytope};
 
 /// How the frame is found.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -89,7 +89,7 @@ impl Plan {
         let can_sort = can_fold
             && allow_sort
             && o.iter().all(|x| *x == o[0])
-            && crate::symmetry::signed_permutations(s)
+            && crate::derive::symmetry::signed_permutations(s)
                 .into_iter()
                 .filter(|m| m.iter().all(|row| row.iter().all(|&x| x >= 0)))
                 .all(|m| has(&m));
@@ -106,7 +106,7 @@ impl Plan {
             let Some(first) = candidates.iter().find(|c| c.reference == r) else { continue };
             let stencil = &d.references[r].stencil;
             let qs: Vec<IVec> = stencil.iter().map(|k| fetch_offset(d, first, r, k)).collect();
-            let order = crate::fetch_order::axis_aligned_order(&qs);
+            let order = crate::emit::fetch_order::axis_aligned_order(&qs);
             slots[r] = (0..nslots).map(|i| order.get(i).copied()).collect();
         }
         for c in candidates.iter_mut() {
@@ -121,7 +121,7 @@ impl Plan {
                 .collect();
         }
         let single = candidates.len() == 1;
-        let vector_adds = if single { crate::fetch_order::walk_adds(&candidates[0].offsets) } else { nslots * s };
+        let vector_adds = if single { crate::emit::fetch_order::walk_adds(&candidates[0].offsets) } else { nslots * s };
         let matvec_adds = nslots * s;
         let classes = d.arrangement.classes.clone();
         let class_keys = classes.iter().map(|c| lattice.reduce(c)).collect();
@@ -181,7 +181,7 @@ impl Plan {
             let q = &c.offsets[slot];
             let pos: IVec = (0..s).map(|i| base[i] + (0..s).map(|j| m[i][j] * q[j]).sum::<i64>()).collect();
             let v = data(&pos);
-            let (pv, pg) = crate::eval::eval_poly_f64(&tab.exps, &tab.coeffs[*k], &u);
+            let (pv, pg) = crate::math::poly::eval_poly_f64(&tab.exps, &tab.coeffs[*k], &u);
             value += v * pv;
             for i in 0..s {
                 grad_u[i] += v * pg[i];
@@ -315,7 +315,7 @@ fn fold_candidates(d: &Derivation, sort: bool) -> Vec<Candidate> {
                 .iter()
                 .map(|h| HalfSpace {
                     normal: h.normal.clone(),
-                    bound: &h.bound + &crate::linalg::dot_q(&h.normal, &lq),
+                    bound: &h.bound + &crate::math::linalg::dot_q(&h.normal, &lq),
                 })
                 .collect();
             let Some(p) = Polytope::from_halfspaces(moved.clone()) else { continue };

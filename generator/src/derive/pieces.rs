@@ -3,10 +3,10 @@
 //! transform prod 1/(w.xi) into cone polynomials over bases of directions;
 //! M_Xi is a signed sum of shifted truncated powers.
 
-use crate::exact::{binomial, factorial, Q};
-use crate::linalg::{inverse, mat_vec_q, rank, solve, to_q, IVec, QVec};
-use crate::poly::{tensor_to_poly, Poly};
-use crate::spline::SplineFacts;
+use crate::derive::spline::SplineFacts;
+use crate::math::exact::{binomial, factorial, Q};
+use crate::math::linalg::{inverse, mat_vec_q, rank, solve, to_q, IVec, QVec};
+use crate::math::poly::{tensor_to_poly, Poly};
 use std::collections::BTreeMap;
 
 /// c * prod_{v in V} t_v^(a_v - 1) / (a_v - 1)! / |det V| on the cone t = V^-1 y >= 0.
@@ -193,7 +193,7 @@ fn partial_fractions(dirs: &[IVec], mult: &[u32], s: usize) -> Vec<ConeTerm> {
             let basis: Vec<usize> = (0..n).filter(|&k| exps[k] > 0).collect();
             let rows: Vec<QVec> = (0..s).map(|r| basis.iter().map(|&k| Q::int(dirs[k][r])).collect()).collect();
             let inv = inverse(&rows).expect("partial fractions end in bases");
-            let det = crate::linalg::det(&rows).abs();
+            let det = crate::math::linalg::det(&rows).abs();
             let powers: Vec<u32> = basis.iter().map(|&k| exps[k] - 1).collect();
             let mut coef = c / &det;
             for &p in &powers {

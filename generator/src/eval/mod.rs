@@ -3,9 +3,12 @@
 //! cell, map to the reference piece, fetch at g^-1(k), evaluate the
 //! reference polynomials). Exact (rationals) and f64.
 
+pub mod oracle;
+
 use crate::derive::Derivation;
-use crate::exact::Q;
-use crate::linalg::{add_i, sub_q, to_q, IVec, QVec};
+use crate::math::exact::Q;
+use crate::math::linalg::{add_i, sub_q, to_q, IVec, QVec};
+use crate::math::poly::eval_poly_f64;
 
 /// Where a point falls: its cell (in the representative cube) and the
 /// lattice vector l that moves the representative cube onto the point's cube.
@@ -112,83 +115,5 @@ impl Derivation {
         // d/dx = R^T d/dy
         let grad: Vec<f64> = (0..s).map(|i| (0..s).map(|k| map.rotation[k][i] as f64 * grad_u[k]).sum()).collect();
         (value, grad)
-    }
-}
-
-/// Value and gradient of sum c_e u^e.
-pub(crate) fn eval_poly_f64(exps: &[Vec<u32>], coeffs: &[f64], u: &[f64]) -> (f64, Vec<f64>) {
-    let s = u.len();
-    let mut v = 0.0;
-    let mut g = vec![0.0; s];
-    for (e, &c) in exps.iter().zip(coeffs) {
-        if c == 0.0 {
-            continue;
-        }
-        let mut m = c;
-        for i in 0..s {
-            m *= u[i].powi(e[i] as i32);
-        }
-        v += m;
-        for d in 0..s {
-            if e[d] == 0 {
-                continue;
-            }
-            let mut md = c * e[d] as f64;
-            for i in 0..s {
-                let k = if i == d { e[i] - 1 } else { e[i] };
-                md *= u[i].powi(k as i32);
-            }
-            g[d] += md;
-        }
-    }
-    (v, g)
-}
-
-/// f64 copies of what evaluation needs.
-#[derive(Clone, Debug)]
-pub struct F64Tables {
-    pub offset: Vec<f64>,
-    /// Per cell: facets (normal, bound).
-    pub cells: Vec<Vec<(Vec<f64>, f64)>>,
-    /// Per reference piece, filled on first use.
-    pub references: Vec<std::sync::OnceLock<F64Reference>>,
-}
-
-#[derive(Clone, Debug)]
-pub struct F64Reference {
-    pub exps: Vec<Vec<u32>>,
-    /// Per stencil sample: coefficients in `exps` order.
-    pub coeffs: Vec<Vec<f64>>,
-}
-
-impl Derivation {
-    pub fn f64_tables(&self) -> &F64Tables {
-        self.f64_cache.get_or_init(|| F64Tables {
-            offset: self.arrangement.grid_offset.iter().map(|q| q.to_f64()).collect(),
-            cells: self
-                .arrangement
-                .cells
-                .iter()
-                .map(|c| {
-                    c.polytope
-                        .facets
-                        .iter()
-                        .map(|h| (h.normal.iter().map(|q| q.to_f64()).collect(), h.bound.to_f64()))
-                        .collect()
-                })
-                .collect(),
-            references: self.references.iter().map(|_| std::sync::OnceLock::new()).collect(),
-        })
-    }
-
-    /// f64 coefficients of reference piece `ri`.
-    pub fn f64_reference(&self, ri: usize) -> &F64Reference {
-        self.f64_tables().references[ri].get_or_init(|| {
-            let polys = &self.forms(ri).polys;
-            F64Reference {
-                exps: polys.first().map(|p| p.basis.exps.clone()).unwrap_or_default(),
-                coeffs: polys.iter().map(|p| p.coeffs.iter().map(|c| c.to_f64()).collect()).collect(),
-            }
-        })
     }
 }

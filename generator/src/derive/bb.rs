@@ -1,9 +1,9 @@
 //! Bernstein-Bezier form of simplicial pieces: every coefficient is an exact
 //! linear combination of the stencil data, b_alpha = sum_k w_{alpha,k} c_k.
 
-use crate::exact::{factorial, Q};
-use crate::linalg::{solve, QVec};
-use crate::poly::{Monomials, Poly};
+use crate::math::exact::{factorial, Q};
+use crate::math::linalg::{solve, QVec};
+use crate::math::poly::{Monomials, Poly};
 
 #[derive(Clone, Debug)]
 pub struct BbForm {

@@ -1,10 +1,10 @@
 //! Writing generated files: atomically (temp file + rename), with a header
 //! naming the command that made them, deterministically.
 
+use crate::build::report::Report;
 use crate::derive::Derivation;
 use crate::emit::{emit, EmitOptions, EmitStats, Layout, Variant};
 use crate::error::{Error, Result};
-use crate::report::Report;
 use std::path::{Path, PathBuf};
 
 /// Writes `bytes` to `path` via a temporary file in the same directory and a

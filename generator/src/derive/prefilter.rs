@@ -17,12 +17,12 @@
 //! column depends on earlier ones) are set to zero, so the result is
 //! deterministic. Everything is exact rational arithmetic.
 
+use crate::derive::symmetry::SignedPerm;
 use crate::error::{Error, Result};
-use crate::exact::{factorial, Q};
-use crate::lattice::Lattice;
-use crate::linalg::{dot_i, mat_vec_i, IVec};
+use crate::math::exact::{factorial, Q};
+use crate::math::linalg::{dot_i, mat_vec_i, IVec};
+use crate::spec::lattice::Lattice;
 use crate::spec::Filter;
-use crate::symmetry::SignedPerm;
 use std::collections::{BTreeMap, BTreeSet};
 
 /// The default limit on the number of shells [`derive_prefilter`] tries.
@@ -356,9 +356,9 @@ fn solve_prefix(columns: &[Vec<Q>], rhs: &[Q]) -> Option<Vec<Q>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::derive::spline::SplineFacts;
+    use crate::derive::symmetry::point_group;
     use crate::spec::{catalog, Caps};
-    use crate::spline::SplineFacts;
-    use crate::symmetry::point_group;
 
     /// A small deterministic generator of unit directions (xorshift).
     fn unit_directions(dim: usize, count: usize, seed: u64) -> Vec<Vec<f64>> {

@@ -2,7 +2,7 @@
 //! Z^s modulo L (cube classes), and the built-in lattices.
 
 use crate::error::{Error, Result};
-use crate::linalg::{det_columns, IVec};
+use crate::math::linalg::{det_columns, IVec};
 
 /// A full-rank integer lattice given by generator columns.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -210,7 +210,7 @@ mod tests {
             assert!(c[0].iter().all(|&x| x == 0));
             for (i, a) in c.iter().enumerate() {
                 for b in &c[i + 1..] {
-                    assert!(!l.contains(&crate::linalg::sub_i(a, b)));
+                    assert!(!l.contains(&crate::math::linalg::sub_i(a, b)));
                 }
             }
         }

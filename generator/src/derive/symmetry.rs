@@ -1,9 +1,9 @@
 //! The point symmetry group P of a filter: signed permutation matrices R with
 //! R L = L and R Xi = Xi up to the sign of each column.
 
-use crate::linalg::{mat_vec_i, IVec};
+use crate::derive::spline::sign_normal;
+use crate::math::linalg::{mat_vec_i, IVec};
 use crate::spec::Filter;
-use crate::spline::sign_normal;
 
 /// A signed permutation matrix, stored as rows.
 pub type SignedPerm = Vec<IVec>;
@@ -61,7 +61,7 @@ pub fn point_group(filter: &Filter) -> Vec<SignedPerm> {
 
 /// R^T (the inverse of a signed permutation).
 pub fn inverse(r: &SignedPerm) -> SignedPerm {
-    crate::linalg::transpose(r)
+    crate::math::linalg::transpose(r)
 }
 
 #[cfg(test)]

@@ -1,8 +1,9 @@
 //! Scalar facts of a direction matrix: degree, approximation order,
 //! continuity, support volume, centre, and the knot-plane normals.
 
-use crate::exact::Q;
-use crate::linalg::{det_columns, primitive, primitive_normal, IVec, QVec};
+use crate::math::exact::Q;
+use crate::math::linalg::{det_columns, primitive, primitive_normal, IVec, QVec};
+pub use crate::math::subsets;
 use crate::spec::Filter;
 
 /// What follows from the direction matrix alone.
@@ -33,24 +34,6 @@ pub fn sign_normal(v: &[i64]) -> IVec {
     }
 }
 
-/// All k-subsets of 0..n, in lexicographic order.
-pub fn subsets(n: usize, k: usize) -> Vec<Vec<usize>> {
-    fn rec(start: usize, n: usize, k: usize, cur: &mut Vec<usize>, out: &mut Vec<Vec<usize>>) {
-        if cur.len() == k {
-            out.push(cur.clone());
-            return;
-        }
-        for i in start..n {
-            cur.push(i);
-            rec(i + 1, n, k, cur, out);
-            cur.pop();
-        }
-    }
-    let mut out = Vec::new();
-    rec(0, n, k, &mut Vec::new(), &mut out);
-    out
-}
-
 impl SplineFacts {
     pub fn new(filter: &Filter) -> SplineFacts {
         let dim = filter.dim();
@@ -79,7 +62,7 @@ impl SplineFacts {
         // rho = min over knot hyperplanes of the number of directions off it.
         let approximation_order = normals
             .iter()
-            .map(|n| directions.iter().filter(|d| crate::linalg::dot_i(n, d) != 0).count())
+            .map(|n| directions.iter().filter(|d| crate::math::linalg::dot_i(n, d) != 0).count())
             .min()
             .unwrap_or(0);
         let support_volume = subsets(directions.len(), dim)
@@ -105,17 +88,17 @@ impl SplineFacts {
 
     /// Half-width of the centred support along normal n: sum |n.xi| / 2.
     pub fn support_half_width(&self, n: &[i64]) -> Q {
-        Q::frac(self.directions.iter().map(|d| crate::linalg::dot_i(n, d).abs()).sum(), 2)
+        Q::frac(self.directions.iter().map(|d| crate::math::linalg::dot_i(n, d).abs()).sum(), 2)
     }
 
     /// Is y strictly inside the centred support (the zonotope)?
     pub fn in_open_support(&self, y: &[Q]) -> bool {
-        self.normals.iter().all(|n| crate::linalg::dot_iq(n, y).abs() < self.support_half_width(n))
+        self.normals.iter().all(|n| crate::math::linalg::dot_iq(n, y).abs() < self.support_half_width(n))
     }
 
     /// Is y in the closed centred support?
     pub fn in_closed_support(&self, y: &[Q]) -> bool {
-        self.normals.iter().all(|n| crate::linalg::dot_iq(n, y).abs() <= self.support_half_width(n))
+        self.normals.iter().all(|n| crate::math::linalg::dot_iq(n, y).abs() <= self.support_half_width(n))
     }
 }
 

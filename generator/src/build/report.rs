@@ -1,10 +1,10 @@
 //! The inspect report: one serialisable value per filter (JSON) and a
 //! readable text rendering of it.
 
-use crate::arrangement::KnotFamily;
+use crate::derive::arrangement::KnotFamily;
 use crate::derive::Derivation;
-use crate::exact::Q;
-use crate::linalg::{IVec, QVec};
+use crate::math::exact::Q;
+use crate::math::linalg::{IVec, QVec};
 use serde::Serialize;
 use std::fmt::Write;
 
@@ -172,7 +172,7 @@ impl Report {
             prefilter: d.prefilter.taps.iter().map(|(j, w)| Weight { offset: j.clone(), w: w.clone() }).collect(),
             prefilter_shells: d.prefilter.shells,
             evaluation: {
-                let plan = crate::plan::Plan::new(d);
+                let plan = crate::emit::plan::Plan::new(d);
                 EvaluationReport {
                     locate: format!("{:?}", plan.locate),
                     candidates: plan.candidates.len(),

@@ -1,7 +1,7 @@
 //! Dense multivariate polynomials of bounded total degree with exact
 //! rational coefficients.
 
-use crate::exact::Q;
+use crate::math::exact::Q;
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex, OnceLock};
 
@@ -312,4 +312,33 @@ mod tests {
         let p = tensor_to_poly(&t, &[2, 3], &[vec![q(2), q(0)], vec![q(0), q(1)]], &[q(0), q(1)], 2, 3);
         assert_eq!(p.eval(&[q(3), q(2)]), q(6 * 9));
     }
+}
+
+/// Value and gradient of sum c_e u^e.
+pub fn eval_poly_f64(exps: &[Vec<u32>], coeffs: &[f64], u: &[f64]) -> (f64, Vec<f64>) {
+    let s = u.len();
+    let mut v = 0.0;
+    let mut g = vec![0.0; s];
+    for (e, &c) in exps.iter().zip(coeffs) {
+        if c == 0.0 {
+            continue;
+        }
+        let mut m = c;
+        for i in 0..s {
+            m *= u[i].powi(e[i] as i32);
+        }
+        v += m;
+        for d in 0..s {
+            if e[d] == 0 {
+                continue;
+            }
+            let mut md = c * e[d] as f64;
+            for i in 0..s {
+                let k = if i == d { e[i] - 1 } else { e[i] };
+                md *= u[i].powi(k as i32);
+            }
+            g[d] += md;
+        }
+    }
+    (v, g)
 }

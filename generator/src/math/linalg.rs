@@ -2,7 +2,7 @@
 //! Matrices are row-major `Vec<Vec<_>>`; "columns" helpers take the vectors
 //! that form the columns.
 
-use crate::exact::Q;
+use crate::math::exact::Q;
 
 pub type IVec = Vec<i64>;
 pub type QVec = Vec<Q>;
@@ -191,7 +191,7 @@ pub fn nullspace(m: &[QVec]) -> Vec<QVec> {
 /// Divides an integer vector by the gcd of its entries and makes its first
 /// non-zero entry positive. Returns None for the zero vector.
 pub fn primitive(v: &[i64]) -> Option<IVec> {
-    let g = v.iter().fold(0i64, |g, &x| crate::exact::gcd(g, x));
+    let g = v.iter().fold(0i64, |g, &x| crate::math::exact::gcd(g, x));
     if g == 0 {
         return None;
     }

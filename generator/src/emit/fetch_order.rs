@@ -3,7 +3,7 @@
 //! non-zero coordinate of a difference is one vector add of a pre-scaled
 //! column of the frame matrix.
 
-use crate::linalg::IVec;
+use crate::math::linalg::IVec;
 
 fn nnz(a: &[i64], b: &[i64]) -> usize {
     a.iter().zip(b).filter(|(x, y)| x != y).count()

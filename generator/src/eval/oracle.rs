@@ -3,7 +3,7 @@
 //! step 5) in exact rationals, memoised.
 //!
 //! It deliberately shares no code with the rest of the generator except
-//! [`crate::exact`], [`crate::linalg`], [`crate::lattice`] and [`crate::spec`].
+//! [`crate::math::exact`], [`crate::math::linalg`], [`crate::spec::lattice`] and [`crate::spec`].
 //!
 //! Method. Equal columns are grouped into distinct directions `d_k` with
 //! multiplicities, so a sub-multiset of Xi is a multiplicity vector `mu`
@@ -34,9 +34,9 @@
 //! non-spanning terms need not vanish and the result is meaningless (not even
 //! a one-sided limit): callers must evaluate strictly inside cells.
 
-use crate::exact::Q;
-use crate::lattice::Lattice;
-use crate::linalg::{dot_iq, inverse, primitive_normal, rank_of_vectors, IVec, QVec};
+use crate::math::exact::Q;
+use crate::math::linalg::{dot_iq, inverse, primitive_normal, rank_of_vectors, IVec, QVec};
+use crate::spec::lattice::Lattice;
 use crate::spec::Filter;
 use std::collections::HashMap;
 use std::hash::{BuildHasherDefault, Hasher};
@@ -281,7 +281,7 @@ impl Oracle {
         // Row-major B (columns are the basis directions), then B^-1.
         let b: Vec<QVec> = (0..s).map(|i| basis.iter().map(|&k| Q::int(self.dirs[k][i])).collect()).collect();
         let binv = inverse(&b).expect("basis is invertible");
-        let det = crate::linalg::det(&b).abs().to_i64().expect("integer determinant");
+        let det = crate::math::linalg::det(&b).abs().to_i64().expect("integer determinant");
         let adj: Vec<Shift> = binv
             .iter()
             .map(|row| {
@@ -388,7 +388,7 @@ impl Oracle {
         let s = self.dim;
         if self.t0[idx as usize].is_none() {
             let base = self.base.as_ref().expect("base set");
-            let t0 = self.nodes[idx as usize].binv.iter().map(|row| crate::linalg::dot_q(row, base)).collect();
+            let t0 = self.nodes[idx as usize].binv.iter().map(|row| crate::math::linalg::dot_q(row, base)).collect();
             self.t0[idx as usize] = Some(t0);
         }
         let node = &self.nodes[idx as usize];
@@ -584,7 +584,7 @@ mod tests {
         loop {
             let k: IVec = (0..f.dim()).map(|_| rng.range(-r * DEN + 1, r * DEN - 1)).collect();
             let on_plane =
-                normals.iter().any(|n| crate::linalg::dot_i(n, &k) % DEN == 0) || k.iter().any(|&x| x % DEN == 0);
+                normals.iter().any(|n| crate::math::linalg::dot_i(n, &k) % DEN == 0) || k.iter().any(|&x| x % DEN == 0);
             if !on_plane {
                 return k.iter().map(|&x| Q::frac(x, DEN)).collect();
             }

@@ -26,10 +26,10 @@
 //! The header of every generated file names `boxforge::Builder (build.rs)`
 //! as the command that made it.
 
+use crate::build::output::write_atomic;
 use crate::derive::Derivation;
 use crate::emit::{emit, EmitOptions, EmitStats, Layout, Variant};
 use crate::error::{Error, Result};
-use crate::output::write_atomic;
 use crate::spec::{catalog, Filter};
 use crate::validate::{check_branch_free, validate_wgsl};
 use std::path::{Path, PathBuf};

@@ -1,0 +1,196 @@
+//! Evaluation forms of a reference piece: its coefficients as exact weights
+//! of the stencil samples, and their evaluation (de Casteljau for BB, powers
+//! for the power form).
+
+use super::writer::*;
+use crate::derive::bb::BbForm;
+use crate::math::exact::Q;
+use crate::math::linalg::{inverse, QVec};
+use crate::math::poly::Poly;
+
+/// Coefficients of every monomial (power form) or BB index, as exact weights
+/// of the stencil samples: (per coefficient, per stencil index) weights.
+pub(crate) enum Form<'a> {
+    Bb(&'a BbForm),
+    Power(&'a [Poly]),
+}
+
+/// Emits the coefficient lets for reference `r`, given the sample names per
+/// stencil index. Returns their names (in form order).
+pub(crate) fn emit_coefficients(body: &mut Body, weights: &[Vec<Q>], samples: &[String], prefix: &str) -> Vec<String> {
+    weights
+        .iter()
+        .map(|w| {
+            let terms: Vec<(Q, String)> = w.iter().cloned().zip(samples.iter().cloned()).collect();
+            body.bind(prefix, &linear_combination(&terms))
+        })
+        .collect()
+}
+
+/// Per-coefficient weights of a form: rows = coefficients, columns = stencil.
+pub(crate) fn form_weights(form: &Form) -> (Vec<Vec<u32>>, Vec<Vec<Q>>) {
+    match form {
+        Form::Bb(bb) => (bb.indices.clone(), bb.weights.clone()),
+        Form::Power(polys) => {
+            let exps = polys[0].basis.exps.clone();
+            let rows: Vec<Vec<Q>> =
+                (0..exps.len()).map(|e| polys.iter().map(|p| p.coeffs[e].clone()).collect()).collect();
+            // Drop monomials that are zero for every sample.
+            let keep: Vec<usize> = (0..exps.len()).filter(|&e| rows[e].iter().any(|c| !c.is_zero())).collect();
+            (keep.iter().map(|&e| exps[e].clone()).collect(), keep.iter().map(|&e| rows[e].clone()).collect())
+        }
+    }
+}
+
+/// Evaluates a form at local coordinates `u` from its coefficient names.
+/// Returns (value, gradient in u as a vector expression or None).
+pub(crate) fn emit_form_eval(
+    body: &mut Body,
+    sh: &Shapes,
+    form: &Form,
+    indices: &[Vec<u32>],
+    coeffs: &[String],
+    u: &str,
+    grad: bool,
+    degree: usize,
+) -> (String, Option<String>) {
+    let s = sh.s;
+    match form {
+        Form::Bb(bb) => {
+            // Barycentric coordinates: lambda_i = affine(u).
+            let v0 = &bb.vertices[0];
+            let t: Vec<QVec> = (0..s).map(|j| (1..=s).map(|i| &bb.vertices[i][j] - &v0[j]).collect()).collect();
+            let tinv = inverse(&t).expect("simplex");
+            // lambda_i (i>=1) = sum_j tinv[i-1][j] (u_j - v0_j)
+            let mut grads: Vec<QVec> = vec![vec![Q::zero(); s]; s + 1];
+            let mut consts: Vec<Q> = vec![Q::zero(); s + 1];
+            for i in 1..=s {
+                grads[i] = tinv[i - 1].clone();
+                consts[i] = -crate::math::linalg::dot_q(&tinv[i - 1], v0);
+            }
+            grads[0] = (0..s).map(|j| -(1..=s).map(|i| grads[i][j].clone()).sum::<Q>()).collect();
+            consts[0] = Q::one() - (1..=s).map(|i| consts[i].clone()).sum::<Q>();
+            let lam: Vec<String> = (0..=s)
+                .map(|i| {
+                    let mut terms: Vec<(Q, String)> =
+                        (0..s).map(|j| (grads[i][j].clone(), format!("{u}.{}", AXES[j]))).collect();
+                    if !consts[i].is_zero() {
+                        terms.push((consts[i].clone(), "1.0".into()));
+                    }
+                    body.bind("l", &linear_combination(&terms))
+                })
+                .collect();
+            if degree == 0 {
+                return (coeffs[0].clone(), grad.then(|| format!("{}(0.0)", sh.vecf)));
+            }
+            // de Casteljau down to degree 1.
+            let mut level: Vec<(Vec<u32>, String)> = indices.iter().cloned().zip(coeffs.iter().cloned()).collect();
+            for l in (1..degree).rev() {
+                let lower: Vec<Vec<u32>> = crate::math::poly::Monomials::get(s + 1, l)
+                    .exps
+                    .iter()
+                    .filter(|e| e.iter().sum::<u32>() as usize == l)
+                    .cloned()
+                    .collect();
+                let mut next = Vec::new();
+                for beta in lower {
+                    let parts: Vec<String> = (0..=s)
+                        .map(|i| {
+                            let mut a = beta.clone();
+                            a[i] += 1;
+                            let name = &level.iter().find(|(e, _)| *e == a).unwrap().1;
+                            format!("{} * {name}", lam[i])
+                        })
+                        .collect();
+                    let n = body.bind("dc", &parts.join(" + "));
+                    next.push((beta, n));
+                }
+                level = next;
+            }
+            let unit = |i: usize| -> String {
+                let mut a = vec![0u32; s + 1];
+                a[i] = 1;
+                level.iter().find(|(e, _)| *e == a).unwrap().1.clone()
+            };
+            let value =
+                body.bind("v", &(0..=s).map(|i| format!("{} * {}", lam[i], unit(i))).collect::<Vec<_>>().join(" + "));
+            let g = grad.then(|| {
+                let comps: Vec<String> = (0..s)
+                    .map(|j| {
+                        let terms: Vec<(Q, String)> = (0..=s).map(|i| (grads[i][j].clone(), unit(i))).collect();
+                        format!("({})", linear_combination(&terms))
+                    })
+                    .collect();
+                body.bind("g", &format!("{} * {}", flit(degree as f32), sh.fvec(&comps)))
+            });
+            (value, g)
+        }
+        Form::Power(_) => {
+            // Powers of each coordinate, then monomials.
+            let maxdeg = indices.iter().flat_map(|e| e.iter()).copied().max().unwrap_or(0) as usize;
+            let mut pows: Vec<Vec<String>> = Vec::new();
+            for j in 0..s {
+                let mut p = vec!["1.0".to_string(), format!("{u}.{}", AXES[j])];
+                for k in 2..=maxdeg {
+                    let n = body.bind("pw", &format!("{} * {u}.{}", p[k - 1], AXES[j]));
+                    p.push(n);
+                }
+                pows.push(p);
+            }
+            let mono = |e: &[u32], skip: Option<usize>| -> Option<String> {
+                let mut f: Vec<String> = Vec::new();
+                for j in 0..s {
+                    let k = if Some(j) == skip { e[j] as i64 - 1 } else { e[j] as i64 };
+                    if k < 0 {
+                        return None;
+                    }
+                    if k > 0 {
+                        f.push(pows[j][k as usize].clone());
+                    }
+                }
+                Some(if f.is_empty() { "1.0".to_string() } else { f.join(" * ") })
+            };
+            let terms: Vec<String> = indices
+                .iter()
+                .zip(coeffs)
+                .map(|(e, c)| {
+                    let m = mono(e, None).unwrap();
+                    if m == "1.0" {
+                        c.clone()
+                    } else {
+                        format!("{c} * {m}")
+                    }
+                })
+                .collect();
+            let value = body.bind("v", &sum_or_zero(&terms));
+            let g = grad.then(|| {
+                let comps: Vec<String> = (0..s)
+                    .map(|j| {
+                        let t: Vec<String> = indices
+                            .iter()
+                            .zip(coeffs)
+                            .filter_map(|(e, c)| {
+                                let m = mono(e, Some(j))?;
+                                let k = e[j];
+                                Some(if k == 1 {
+                                    if m == "1.0" {
+                                        c.clone()
+                                    } else {
+                                        format!("{c} * {m}")
+                                    }
+                                } else if m == "1.0" {
+                                    format!("{} * {c}", flit(k as f32))
+                                } else {
+                                    format!("{} * {c} * {m}", flit(k as f32))
+                                })
+                            })
+                            .collect();
+                        format!("({})", sum_or_zero(&t))
+                    })
+                    .collect();
+                body.bind("g", &sh.fvec(&comps))
+            });
+            (value, g)
+        }
+    }
+}

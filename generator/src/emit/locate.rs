@@ -1,0 +1,317 @@
+//! Branch-free point location in WGSL: the frame (fold, sorting network or
+//! generic class select), the candidate choice by plane tests, and the
+//! axis-aligned fetch walk.
+
+use super::{forms::*, naive::*, writer::*};
+use crate::derive::Derivation;
+use crate::emit::plan::{Candidate, Locate, Plan};
+use crate::math::exact::Q;
+use crate::math::linalg::{IVec, QVec};
+
+/// The frame: base (veci), columns of M (veci names), w (vecf), class (i32 or None).
+pub(crate) struct Frame {
+    pub(crate) base: String,
+    pub(crate) cols: Vec<String>,
+    pub(crate) w: String,
+    pub(crate) class: Option<String>,
+}
+
+pub(crate) fn emit_frame(body: &mut Body, sh: &Shapes, plan: &Plan, name: &str, naive: bool) -> Frame {
+    let s = sh.s;
+    match plan.locate {
+        Locate::Fold { sort } => {
+            let c = body.bind("c", "2.0 * round(p * 0.5)");
+            let d = body.bind("d", &format!("p - {c}"));
+            let sg = body.bind("sg", &format!("select({}(-1), {}(1), {d} >= {}(0.0))", sh.veci, sh.veci, sh.vecf));
+            let base = body.bind("base", &format!("{}({c})", sh.veci));
+            let mut w = body.bind("w", &format!("abs({d})"));
+            let mut cols: Vec<String> = (0..s)
+                .map(|i| {
+                    let comps: Vec<String> =
+                        (0..s).map(|j| if i == j { format!("{sg}.{}", AXES[j]) } else { "0".into() }).collect();
+                    body.bind("m", &format!("{}({})", sh.veci, comps.join(", ")))
+                })
+                .collect();
+            if sort {
+                let pairs: Vec<(usize, usize)> = match s {
+                    2 => vec![(0, 1)],
+                    3 => vec![(0, 1), (1, 2), (0, 1)],
+                    _ => (0..s).flat_map(|i| (0..s - 1 - i).map(|j| (j, j + 1))).collect(),
+                };
+                for (i, j) in pairs {
+                    let mut swz: Vec<&str> = AXES[..s].to_vec();
+                    swz.swap(i, j);
+                    let swz: String = swz.concat();
+                    if naive {
+                        body.line(&format!("if ({w}.{} < {w}.{}) {{", AXES[i], AXES[j]));
+                        body.line(&format!("    {w} = {w}.{swz};"));
+                        body.line(&format!("    let t = {};", cols[i]));
+                        body.line(&format!("    {} = {};", cols[i], cols[j]));
+                        body.line(&format!("    {} = t;", cols[j]));
+                        body.line("}");
+                    } else {
+                        let sw = body.bind("sw", &format!("{w}.{} < {w}.{}", AXES[i], AXES[j]));
+                        let nw = body.bind("w", &format!("select({w}, {w}.{swz}, {sw})"));
+                        let ci = body.bind("m", &format!("select({}, {}, {sw})", cols[i], cols[j]));
+                        let cj = body.bind("m", &format!("select({}, {}, {sw})", cols[j], cols[i]));
+                        w = nw;
+                        cols[i] = ci;
+                        cols[j] = cj;
+                    }
+                }
+            }
+            Frame { base, cols, w, class: None }
+        }
+        Locate::Generic => {
+            let o: Vec<String> = plan.grid_offset.iter().map(lit).collect();
+            let z = body.bind("z", &format!("{}(floor(p - {}))", sh.veci, sh.fvec(&o)));
+            // Reduce z modulo L with the Hermite basis (column i is zero above row i).
+            let mut r = z.clone();
+            for i in 0..s {
+                let h = plan.hermite[i][i];
+                if h == 1 && (i + 1..s).all(|k| plan.hermite[i][k] == 0) {
+                    // subtracting floor(r_i) * e_i just zeroes the coordinate
+                }
+                let q = body.bind("q", &format!("{name}_floor_div({r}.{}, {h})", AXES[i]));
+                r = body.bind("r", &format!("{r} - {q} * {}", sh.ivec(&plan.hermite[i])));
+            }
+            let mut cls = body.bind("cls", "0");
+            let mut rep = body.bind("rep", &sh.ivec(&plan.classes[0]));
+            for (k, key) in plan.class_keys.iter().enumerate().skip(1) {
+                let hit = body.bind("hit", &format!("all({r} == {})", sh.ivec(key)));
+                if naive {
+                    body.line(&format!("if ({hit}) {{ {cls} = {k}; {rep} = {}; }}", sh.ivec(&plan.classes[k])));
+                } else {
+                    cls = body.bind("cls", &format!("select({cls}, {k}, {hit})"));
+                    rep = body.bind("rep", &format!("select({rep}, {}, {hit})", sh.ivec(&plan.classes[k])));
+                }
+            }
+            let base = body.bind("base", &format!("{z} - {rep}"));
+            let w = body.bind("w", &format!("p - {}({base})", sh.vecf));
+            let cols: Vec<String> = (0..s)
+                .map(|i| {
+                    let mut e = vec![0; s];
+                    e[i] = 1;
+                    sh.ivec(&e)
+                })
+                .collect();
+            Frame { base, cols, w, class: Some(cls) }
+        }
+    }
+}
+
+/// Index of the chosen candidate (an i32 expression; "0" when only one).
+pub(crate) fn emit_candidate_choice(body: &mut Body, sh: &Shapes, plan: &Plan, frame: &Frame, naive: bool) -> String {
+    if plan.candidates.len() == 1 && frame.class.is_none() {
+        return "0".into();
+    }
+    let tests = |c: &Candidate| -> String {
+        let mut t: Vec<String> = c.tests.iter().map(|h| plane_test(sh, &h.normal, &h.bound, &frame.w)).collect();
+        if let Some(cls) = &frame.class {
+            t.push(format!("({cls} == {})", c.class));
+        }
+        if t.is_empty() {
+            "true".into()
+        } else {
+            t.join(" & ")
+        }
+    };
+    if naive {
+        body.line("var ci = 0;");
+        for (i, c) in plan.candidates.iter().enumerate().skip(1) {
+            body.line(&format!("if ({}) {{ ci = {i}; }}", tests(c).replace(" & ", " && ")));
+        }
+        return "ci".into();
+    }
+    let mut ci = "0".to_string();
+    for (i, c) in plan.candidates.iter().enumerate().skip(1) {
+        let inside = body.bind("in", &tests(c));
+        ci = body.bind("ci", &format!("select({ci}, {i}, {inside})"));
+    }
+    ci
+}
+
+/// select chain over candidates: values[i] when ci == i.
+pub(crate) fn select_by_candidate(body: &mut Body, ci: &str, values: &[String], prefix: &str) -> String {
+    if values.len() == 1 || values.iter().all(|v| *v == values[0]) {
+        return values[0].clone();
+    }
+    let mut acc = values[0].clone();
+    for (i, v) in values.iter().enumerate().skip(1) {
+        if *v == acc {
+            continue;
+        }
+        acc = body.bind(prefix, &format!("select({acc}, {v}, {ci} == {i})"));
+    }
+    acc
+}
+
+/// M q for a constant integer vector q.
+pub(crate) fn frame_times(sh: &Shapes, cols: &[String], q: &[i64]) -> Option<String> {
+    let parts: Vec<String> = (0..sh.s)
+        .filter(|&i| q[i] != 0)
+        .map(|i| match q[i] {
+            1 => cols[i].clone(),
+            -1 => format!("-{}", cols[i]),
+            k => format!("{k} * {}", cols[i]),
+        })
+        .collect();
+    (!parts.is_empty()).then(|| parts.join(" + "))
+}
+
+/// Emits fetches for every slot; returns the sample names per slot.
+pub(crate) fn emit_fetches(
+    body: &mut Body,
+    sh: &Shapes,
+    plan: &Plan,
+    frame: &Frame,
+    ci: &str,
+    name: &str,
+) -> Vec<String> {
+    let nslots = plan.fetches();
+    let mut out = Vec::new();
+    if plan.candidates.len() == 1 {
+        // Axis-aligned walk: each step adds pre-scaled frame columns.
+        let offs = &plan.candidates[0].offsets;
+        let mut scaled: std::collections::BTreeMap<(usize, i64), String> = std::collections::BTreeMap::new();
+        let mut pos = String::new();
+        let mut prev = vec![0i64; sh.s];
+        for (k, q) in offs.iter().enumerate() {
+            let delta: IVec = q.iter().zip(&prev).map(|(a, b)| a - b).collect();
+            let mut parts = Vec::new();
+            for i in 0..sh.s {
+                if delta[i] == 0 {
+                    continue;
+                }
+                let col = match delta[i] {
+                    1 => frame.cols[i].clone(),
+                    -1 => format!("-{}", frame.cols[i]),
+                    dlt => scaled
+                        .entry((i, dlt))
+                        .or_insert_with(|| body.bind("col", &format!("{dlt} * {}", frame.cols[i])))
+                        .clone(),
+                };
+                parts.push(col);
+            }
+            let start = if k == 0 { frame.base.clone() } else { pos.clone() };
+            pos = if parts.is_empty() {
+                start
+            } else {
+                let expr = parts.iter().fold(start, |acc, p| {
+                    if let Some(rest) = p.strip_prefix('-') {
+                        format!("{acc} - {rest}")
+                    } else {
+                        format!("{acc} + {p}")
+                    }
+                });
+                body.bind("j", &expr)
+            };
+            prev = q.clone();
+            out.push(body.bind("f", &format!("{name}_fetch({pos})")));
+        }
+        return out;
+    }
+    for slot in 0..nslots {
+        let qs: Vec<String> = plan.candidates.iter().map(|c| sh.ivec(&c.offsets[slot])).collect();
+        let q = select_by_candidate(body, ci, &qs, "q");
+        let parts: Vec<String> = (0..sh.s).map(|i| format!("{} * {q}.{}", frame.cols[i], AXES[i])).collect();
+        let j = body.bind("j", &format!("{} + {}", frame.base, parts.join(" + ")));
+        out.push(body.bind("f", &format!("{name}_fetch({j})")));
+    }
+    out
+}
+
+/// Local coordinates of reference r for each candidate of it: R w + t - o - corner.
+pub(crate) fn local_coords(sh: &Shapes, d: &Derivation, plan: &Plan, c: &Candidate, w: &str) -> String {
+    let r = &d.references[c.reference];
+    let shift: QVec =
+        (0..sh.s).map(|i| &(&Q::int(c.translation[i]) - &plan.grid_offset[i]) - &Q::int(r.corner[i])).collect();
+    let rw = sh.perm_apply(&c.rotation, w);
+    if shift.iter().all(|x| x.is_zero()) {
+        rw
+    } else {
+        format!("{rw} + {}", sh.fvec(&shift.iter().map(lit).collect::<Vec<_>>()))
+    }
+}
+
+/// The body of eval (grad = false) or eval_grad.
+pub(crate) fn emit_eval_body(d: &Derivation, plan: &Plan, sh: &Shapes, name: &str, grad: bool, naive: bool) -> String {
+    let mut body = Body::new();
+    let frame =
+        if naive { emit_frame_naive(&mut body, sh, plan, name) } else { emit_frame(&mut body, sh, plan, name, false) };
+    let ci = emit_candidate_choice(&mut body, sh, plan, &frame, naive);
+    let samples_by_slot = if naive {
+        emit_fetches_naive(&mut body, sh, plan, &frame, &ci, name)
+    } else {
+        emit_fetches(&mut body, sh, plan, &frame, &ci, name)
+    };
+    let mut values: Vec<(usize, String, Option<String>)> = Vec::new();
+    for r in plan.used_references() {
+        let forms = d.forms(r);
+        let form = match &forms.bb {
+            Some(bb) => Form::Bb(bb),
+            None => Form::Power(&forms.polys),
+        };
+        let (indices, weights) = form_weights(&form);
+        // samples per stencil index, via the slot mapping.
+        let nst = d.references[r].stencil.len();
+        let mut per_k = vec![String::from("0.0"); nst];
+        for (slot, k) in plan.slots[r].iter().enumerate() {
+            if let Some(k) = k {
+                per_k[*k] = samples_by_slot[slot].clone();
+            }
+        }
+        let coeffs = if naive {
+            emit_coefficients_naive(&mut body, &weights, &per_k, &format!("{name}_W{r}"))
+        } else {
+            emit_coefficients(&mut body, &weights, &per_k, "b")
+        };
+        let cands: Vec<(usize, &Candidate)> =
+            plan.candidates.iter().enumerate().filter(|(_, c)| c.reference == r).collect();
+        let us: Vec<String> = plan
+            .candidates
+            .iter()
+            .map(|c| if c.reference == r { local_coords(sh, d, plan, c, &frame.w) } else { String::new() })
+            .collect();
+        let u = if cands.len() == 1 {
+            body.bind("u", &us[cands[0].0])
+        } else {
+            let first = body.bind("u", &us[cands[0].0]);
+            let mut acc = first;
+            for (i, _) in cands.iter().skip(1) {
+                let v = body.bind("u", &us[*i]);
+                acc = body.bind("u", &format!("select({acc}, {v}, {ci} == {i})"));
+            }
+            acc
+        };
+        let (v, g) = emit_form_eval(&mut body, sh, &form, &indices, &coeffs, &u, grad, d.facts.degree);
+        values.push((r, v, g));
+    }
+    // Pick the chosen candidate's reference.
+    let ref_of: Vec<usize> = plan.candidates.iter().map(|c| c.reference).collect();
+    let pick = |body: &mut Body, which: &dyn Fn(&(usize, String, Option<String>)) -> String, prefix: &str| {
+        let per_cand: Vec<String> =
+            ref_of.iter().map(|r| which(values.iter().find(|(rr, _, _)| rr == r).unwrap())).collect();
+        select_by_candidate(body, &ci, &per_cand, prefix)
+    };
+    let value = pick(&mut body, &|t| t.1.clone(), "val");
+    if !grad {
+        body.line(&format!("return {value};"));
+        return body.text;
+    }
+    // grad_w = R^T grad_u per candidate, then grad_x = M grad_w.
+    let per_cand: Vec<String> = plan
+        .candidates
+        .iter()
+        .map(|c| {
+            let g = values.iter().find(|(rr, _, _)| *rr == c.reference).unwrap().2.clone().unwrap();
+            sh.perm_apply(&crate::derive::symmetry::inverse(&c.rotation), &g)
+        })
+        .collect();
+    let gw_terms: Vec<String> = per_cand.iter().map(|e| body.bind("gw", e)).collect();
+    let gw = select_by_candidate(&mut body, &ci, &gw_terms, "gw");
+    let gx: Vec<String> = (0..sh.s).map(|i| format!("{}({}) * {gw}.{}", sh.vecf, frame.cols[i], AXES[i])).collect();
+    let gx = body.bind("gx", &gx.join(" + "));
+    body.line(&format!("return vec{}<f32>({value}, {gx});", sh.s + 1));
+    body.text
+}

@@ -1,0 +1,272 @@
+//! WGSL emission: turns a [`Plan`] and the exact reference forms into a
+//! module with `<f>_fetch`, `<f>_eval`, `<f>_eval_grad`, and the prefilter
+//! and min/max kernels. Skeletons are minijinja templates (`templates/`);
+//! expression code is written by the small [`Body`] writer below.
+//!
+//! The `fast` variant is straight-line code: folding, sorting networks and
+//! plane tests drive `select`; fetch positions walk axis-aligned steps. The
+//! `naive` variant computes the same mathematics with `if`, loops and lookup
+//! tables, so the benefit can be measured (and the branch-free check can fail).
+
+pub mod bounds;
+pub mod coset;
+pub mod fetch_order;
+pub mod forms;
+pub mod locate;
+pub mod naive;
+pub mod plan;
+pub mod writer;
+
+use bounds::cube_bounds_fn;
+use coset::helpers;
+pub use coset::{coset_of, coset_pivots};
+use locate::emit_eval_body;
+use naive::naive_tables;
+pub use writer::{count_ops, lit};
+use writer::{Shapes, AXES};
+
+use crate::derive::Derivation;
+use crate::emit::plan::{Locate, Plan};
+use crate::error::{Error, Result};
+use crate::math::linalg::IVec;
+use serde::Serialize;
+use std::fmt::Write;
+
+/// Storage layout of the samples.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Layout {
+    /// Cartesian texture with the lattice embedded (|det G| texels per sample).
+    Embedded,
+    /// One dense array per coset of 2Z^s in a storage buffer (one word per sample).
+    Packed,
+}
+
+/// Code shape.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Variant {
+    /// Branch-free, table-free straight-line code.
+    Fast,
+    /// The same mathematics with branches, loops and lookup tables.
+    Naive,
+}
+
+impl Layout {
+    pub fn name(self) -> &'static str {
+        match self {
+            Layout::Embedded => "embedded",
+            Layout::Packed => "packed",
+        }
+    }
+    pub fn parse(s: &str) -> Option<Layout> {
+        match s {
+            "embedded" => Some(Layout::Embedded),
+            "packed" => Some(Layout::Packed),
+            _ => None,
+        }
+    }
+}
+
+impl Variant {
+    pub fn name(self) -> &'static str {
+        match self {
+            Variant::Fast => "fast",
+            Variant::Naive => "naive",
+        }
+    }
+    pub fn parse(s: &str) -> Option<Variant> {
+        match s {
+            "fast" => Some(Variant::Fast),
+            "naive" => Some(Variant::Naive),
+            _ => None,
+        }
+    }
+}
+
+#[derive(Clone, Debug)]
+pub struct EmitOptions {
+    pub layout: Layout,
+    pub variant: Variant,
+    /// Bind group and first binding of the samples.
+    pub group: u32,
+    pub binding: u32,
+    /// Include the prefilter and min/max compute kernels.
+    pub kernels: bool,
+    /// The command named in the header.
+    pub command: String,
+}
+
+impl Default for EmitOptions {
+    fn default() -> Self {
+        EmitOptions {
+            layout: Layout::Embedded,
+            variant: Variant::Fast,
+            group: 0,
+            binding: 0,
+            kernels: true,
+            command: "boxforge generate".into(),
+        }
+    }
+}
+
+/// Counts reported per emitted module.
+#[derive(Clone, Debug, Serialize)]
+pub struct EmitStats {
+    pub layout: Layout,
+    pub variant: Variant,
+    pub locate: String,
+    pub candidates: usize,
+    pub fetches_per_eval: usize,
+    pub vector_adds: usize,
+    pub matvec_adds: usize,
+    /// Arithmetic operators, comparisons, selects and builtin calls in the
+    /// source of `eval` / `eval_grad` (a static count, not a timing).
+    pub ops_eval: usize,
+    pub ops_eval_grad: usize,
+}
+
+#[derive(Clone, Debug)]
+pub struct Emitted {
+    pub file_name: String,
+    pub source: String,
+    pub stats: EmitStats,
+}
+
+/// `<filter>.<layout>.wgsl` or `<filter>.<layout>.naive.wgsl`.
+pub fn file_name(filter: &str, layout: Layout, variant: Variant) -> String {
+    match variant {
+        Variant::Fast => format!("{filter}.{}.wgsl", layout.name()),
+        Variant::Naive => format!("{filter}.{}.naive.wgsl", layout.name()),
+    }
+}
+
+/// Emits the module for one filter.
+pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
+    let plan = Plan::new(d);
+    let s = d.facts.dim;
+    let sh = Shapes::new(s);
+    let name = &d.filter.name;
+    let naive = opts.variant == Variant::Naive;
+    let eval_body = emit_eval_body(d, &plan, &sh, name, false, naive);
+    let grad_body = emit_eval_body(d, &plan, &sh, name, true, naive);
+    let mut helper_text = helpers(&sh, &plan, name);
+    if naive {
+        helper_text.push_str(&naive_tables(d, &plan, &sh, name));
+        helper_text.push('\n');
+    }
+    if opts.kernels {
+        helper_text.push_str(&cube_bounds_fn(d, &sh, name));
+    }
+    let swz: String = AXES[..s].concat();
+    let (coset_expr, linear_expr, cosets, coset_formula) =
+        match opts.layout {
+            Layout::Packed => {
+                let piv = coset_pivots(&d.filter.lattice)?;
+                let expr: Vec<String> =
+                    piv.iter()
+                        .enumerate()
+                        .map(|(i, &p)| {
+                            if i == 0 {
+                                format!("(j.{} & 1)", AXES[p])
+                            } else {
+                                format!("((j.{} & 1) << {i}u)", AXES[p])
+                            }
+                        })
+                        .collect();
+                let expr = if expr.is_empty() { "0".to_string() } else { expr.join(" + ") };
+                let lin = if s == 3 {
+                    format!("(m.z * {name}_grid.size.y + m.y) * {name}_grid.size.x + m.x")
+                } else {
+                    format!("m.y * {name}_grid.size.x + m.x")
+                };
+                let formula = expr.clone();
+                (expr, lin, 1usize << piv.len(), formula)
+            }
+            Layout::Embedded => (String::new(), String::new(), 0, String::new()),
+        };
+    let extent_product = if s == 3 { "e.x * e.y * e.z" } else { "e.x * e.y" };
+    let delinearize =
+        if s == 3 { "vec3<i32>(i % e.x, (i / e.x) % e.y, i / (e.x * e.y))" } else { "vec2<i32>(i % e.x, i / e.x)" };
+    let (block_volume, cube_in_block) = if s == 3 {
+        ("b * b * b", "vec3<i32>(t % b, (t / b) % b, t / (b * b))")
+    } else {
+        ("b * b", "vec2<i32>(t % b, t / b)")
+    };
+    let mut prefilter_body = String::new();
+    for (k, w) in &d.prefilter.taps {
+        let neg: IVec = k.iter().map(|x| -x).collect();
+        let _ = writeln!(prefilter_body, "    acc += {} * {name}_fetch(j + {});", lit(w), sh.ivec(&neg));
+    }
+    let out_binding = opts.binding + if opts.layout == Layout::Packed { 2 } else { 1 };
+    let env = template_env();
+    let tmpl = env.get_template("module.wgsl.j2").expect("module template");
+    let ctx = minijinja::context! {
+        command => opts.command.clone(),
+        name => name,
+        lattice => d.filter.lattice.name.clone(),
+        dim => s,
+        layout => opts.layout.name(),
+        variant => opts.variant.name(),
+        locate => match plan.locate { Locate::Fold { sort: true } => "fold + sorting network + plane tests", Locate::Fold { sort: false } => "fold + plane tests", Locate::Generic => "generic select over cube classes and cells" },
+        fetches => plan.fetches(),
+        vector_adds => plan.vector_adds,
+        matvec_adds => plan.matvec_adds,
+        group => opts.group,
+        binding => opts.binding,
+        out_binding => out_binding,
+        vecf => sh.vecf,
+        veci => sh.veci,
+        vecu => format!("vec{s}<u32>"),
+        gradf => format!("vec{}<f32>", s + 1),
+        swz => swz,
+        coset_expr => coset_expr,
+        coset_formula => coset_formula,
+        cosets => cosets,
+        linear_expr => linear_expr,
+        helpers => helper_text,
+        eval_body => eval_body.clone(),
+        grad_body => grad_body.clone(),
+        has_kernels => opts.kernels,
+        extent_product => extent_product,
+        delinearize => delinearize,
+        block_volume => block_volume,
+        cube_in_block => cube_in_block,
+        prefilter_body => prefilter_body,
+    };
+    let source = tmpl.render(ctx).map_err(|e| Error::Spec { origin: "templates".into(), message: e.to_string() })?;
+    let stats = EmitStats {
+        layout: opts.layout,
+        variant: opts.variant,
+        locate: format!("{:?}", plan.locate),
+        candidates: plan.candidates.len(),
+        fetches_per_eval: plan.fetches(),
+        vector_adds: plan.vector_adds,
+        matvec_adds: plan.matvec_adds,
+        ops_eval: count_ops(&eval_body),
+        ops_eval_grad: count_ops(&grad_body),
+    };
+    Ok(Emitted { file_name: file_name(name, opts.layout, opts.variant), source, stats })
+}
+
+/// The templates, embedded at build time so the generator works as a
+/// build-dependency without the repository around it.
+fn template_env() -> minijinja::Environment<'static> {
+    let mut env = minijinja::Environment::new();
+    env.set_syntax(
+        minijinja::syntax::SyntaxConfig::builder()
+            .keep_trailing_newline(true)
+            .trim_blocks(true)
+            .build()
+            .expect("syntax config"),
+    );
+    for (n, src) in [
+        ("module.wgsl.j2", include_str!("../../../templates/module.wgsl.j2")),
+        ("fetch_embedded.wgsl.j2", include_str!("../../../templates/fetch_embedded.wgsl.j2")),
+        ("fetch_packed.wgsl.j2", include_str!("../../../templates/fetch_packed.wgsl.j2")),
+        ("kernels.wgsl.j2", include_str!("../../../templates/kernels.wgsl.j2")),
+    ] {
+        env.add_template(n, src).expect("template parses");
+    }
+    env
+}

@@ -1,0 +1,111 @@
+//! The naive variant: the same mathematics with `if`, loops and lookup
+//! tables, so the benefit of the fast variant can be measured.
+
+use super::{forms::*, locate::*, writer::*};
+use crate::derive::Derivation;
+use crate::emit::plan::{Locate, Plan};
+use crate::math::exact::Q;
+use std::fmt::Write;
+
+/// Naive frame: same folding, but sorting with `if` on mutable variables.
+pub(crate) fn emit_frame_naive(body: &mut Body, sh: &Shapes, plan: &Plan, name: &str) -> Frame {
+    match plan.locate {
+        Locate::Fold { .. } => {
+            // Declare mutable copies so the sorting can swap in place.
+            let mut f = Body { text: String::new(), next: body.next, indent: body.indent };
+            let fr = emit_frame(&mut f, sh, plan, name, true);
+            body.next = f.next;
+            // Turn the lets that the `if` swaps into vars.
+            let mut text = f.text;
+            for v in fr.cols.iter().chain(std::iter::once(&fr.w)) {
+                text = text.replace(&format!("let {v} ="), &format!("var {v} ="));
+            }
+            body.text.push_str(&text);
+            fr
+        }
+        Locate::Generic => {
+            let mut f = Body { text: String::new(), next: body.next, indent: body.indent };
+            let fr = emit_frame(&mut f, sh, plan, name, true);
+            body.next = f.next;
+            let mut text = f.text;
+            if let Some(c) = &fr.class {
+                text = text.replacen(&format!("let {c} ="), &format!("var {c} ="), 1);
+            }
+            text = text.replacen("let rep", "var rep", 1);
+            body.text.push_str(&text);
+            fr
+        }
+    }
+}
+
+/// Naive fetches: offsets from a lookup table, in a loop, into an array.
+pub(crate) fn emit_fetches_naive(
+    body: &mut Body,
+    sh: &Shapes,
+    plan: &Plan,
+    frame: &Frame,
+    ci: &str,
+    name: &str,
+) -> Vec<String> {
+    let n = plan.fetches();
+    body.line(&format!("var f: array<f32, {n}>;"));
+    body.line(&format!("for (var k = 0; k < {n}; k++) {{"));
+    body.line(&format!("    let q = {name}_OFFSETS[{ci} * {n} + k];"));
+    let parts: Vec<String> = (0..sh.s).map(|i| format!("{} * q.{}", frame.cols[i], AXES[i])).collect();
+    body.line(&format!("    f[k] = {name}_fetch({} + {});", frame.base, parts.join(" + ")));
+    body.line("}");
+    (0..n).map(|k| format!("f[{k}]")).collect()
+}
+
+/// Naive coefficients: a loop over a (coefficient, sample, weight) table.
+pub(crate) fn emit_coefficients_naive(
+    body: &mut Body,
+    weights: &[Vec<Q>],
+    samples: &[String],
+    table: &str,
+) -> Vec<String> {
+    let n = weights.len();
+    let arr = body.bind("bt", &format!("array<f32, {n}>()"));
+    body.text = body.text.replace(&format!("let {arr} ="), &format!("var {arr} ="));
+    let entries: usize = weights.iter().map(|w| w.iter().filter(|x| !x.is_zero()).count()).sum();
+    body.line(&format!("for (var e = 0; e < {entries}; e++) {{"));
+    body.line(&format!("    let t = {table}[e];"));
+    body.line(&format!("    {arr}[i32(t.x)] += t.z * f[i32(t.y)];"));
+    body.line("}");
+    let _ = samples;
+    (0..n).map(|i| format!("{arr}[{i}]")).collect()
+}
+
+/// Module-scope tables of the naive variant.
+pub(crate) fn naive_tables(d: &Derivation, plan: &Plan, sh: &Shapes, name: &str) -> String {
+    let mut out = String::new();
+    let n = plan.fetches();
+    let offs: Vec<String> = plan.candidates.iter().flat_map(|c| c.offsets.iter().map(|q| sh.ivec(q))).collect();
+    let _ = writeln!(out, "const {name}_OFFSETS = array<{}, {}>({});", sh.veci, offs.len(), offs.join(", "));
+    for r in plan.used_references() {
+        let forms = d.forms(r);
+        let form = match &forms.bb {
+            Some(bb) => Form::Bb(bb),
+            None => Form::Power(&forms.polys),
+        };
+        let (_, weights) = form_weights(&form);
+        // slot of each stencil index
+        let mut slot_of = vec![0usize; d.references[r].stencil.len()];
+        for (slot, k) in plan.slots[r].iter().enumerate() {
+            if let Some(k) = k {
+                slot_of[*k] = slot;
+            }
+        }
+        let mut entries = Vec::new();
+        for (a, w) in weights.iter().enumerate() {
+            for (k, x) in w.iter().enumerate() {
+                if !x.is_zero() {
+                    entries.push(format!("vec3<f32>({}.0, {}.0, {})", a, slot_of[k], lit(x)));
+                }
+            }
+        }
+        let _ = writeln!(out, "const {name}_W{r} = array<vec3<f32>, {}>({});", entries.len(), entries.join(", "));
+    }
+    let _ = n;
+    out
+}
