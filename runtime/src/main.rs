@@ -52,6 +52,9 @@ enum Command {
         /// Code variant (default: both).
         #[arg(long, value_parser = ["fast", "naive"])]
         variant: Option<String>,
+        /// Evaluation form for every filter (default: each spec's `form`, `auto`).
+        #[arg(long, value_parser = ["auto", "factored", "power", "bb", "dense"])]
+        form: Option<String>,
         /// Do not write: exit 1 if any file in the directory differs (stale).
         #[arg(long)]
         check: bool,
@@ -77,6 +80,12 @@ enum Command {
         layout: String,
         #[arg(long, value_parser = ["fast", "naive"], default_value = "fast")]
         variant: String,
+        /// Evaluation form (default: the filter's own, `auto`: the cheapest).
+        #[arg(long, value_parser = ["auto", "factored", "power", "bb", "dense"])]
+        form: Option<String>,
+        /// Fetch bounds: clamp to the volume, or unchecked (caller pads).
+        #[arg(long, value_parser = ["clamp", "unchecked"], default_value = "clamp")]
+        bounds: String,
         #[arg(long, default_value_t = 100_000)]
         points: usize,
         #[arg(long, default_value_t = 1)]
@@ -301,22 +310,26 @@ fn run(cli: Cli) -> Result<(), Failure> {
             Ok(())
         }
         Command::Demo { out, size, adapter } => demo::run(&out, size, adapter.as_deref()).map_err(Failure),
-        Command::Verify { filter, layout, variant, points, seed, adapter, json } => {
+        Command::Verify { filter, layout, variant, form, bounds, points, seed, adapter, json } => {
             let f = spec::resolve(&filter)?;
             let d = Derivation::new(&f)?;
             let gpu = boxforge_runtime::gpu::Gpu::new(adapter.as_deref()).map_err(|e| Failure(e.to_string()))?;
             let layout = Layout::parse(&layout).expect("clap checked");
             let variant = Variant::parse(&variant).expect("clap checked");
-            let r = boxforge_runtime::verify::verify(&gpu, &d, layout, variant, points, seed)
+            let form = form.map(|f| boxforge::emit::EvalForm::parse(&f).expect("clap checked"));
+            let bounds = boxforge::emit::Bounds::parse(&bounds).expect("clap checked");
+            let r = boxforge_runtime::verify::verify_with(&gpu, &d, layout, variant, form, bounds, points, seed)
                 .map_err(|e| Failure(e.to_string()))?;
             if json {
                 println!("{}", serde_json::to_string(&r).unwrap());
             } else {
                 println!(
-                    "{} ({}, {}) on {}: {} points, max |value error| {:.3e} (range {:.3}), max relative gradient error {:.3e}: {}",
+                    "{} ({}, {}, form {}, {} fetches) on {}: {} points, max |value error| {:.3e} (range {:.3}), max relative gradient error {:.3e}: {}",
                     r.filter,
                     layout.name(),
                     variant.name(),
+                    r.form.name(),
+                    r.bounds.name(),
                     r.adapter,
                     r.points,
                     r.max_abs_err,
@@ -331,9 +344,13 @@ fn run(cli: Cli) -> Result<(), Failure> {
                 std::process::exit(1)
             }
         }
-        Command::Generate { filters, all, out, layout, variant, check } => {
+        Command::Generate { filters, all, out, layout, variant, form, check } => {
             let names = filter_names(filters.clone(), all)?;
-            let resolved = names.iter().map(|n| spec::resolve(n)).collect::<Result<Vec<_>, _>>()?;
+            let mut resolved = names.iter().map(|n| spec::resolve(n)).collect::<Result<Vec<_>, _>>()?;
+            if let Some(f) = &form {
+                let f = boxforge::emit::EvalForm::parse(f).expect("clap checked");
+                resolved.iter_mut().for_each(|r| r.form = f);
+            }
             let layouts: Vec<Layout> = match &layout {
                 Some(l) => vec![Layout::parse(l).expect("clap checked")],
                 None => ALL_LAYOUTS.to_vec(),
@@ -348,6 +365,9 @@ fn run(cli: Cli) -> Result<(), Failure> {
             }
             if let Some(v) = &variant {
                 what.push_str(&format!(" --variant {v}"));
+            }
+            if let Some(f) = &form {
+                what.push_str(&format!(" --form {f}"));
             }
             let command = format!("boxforge generate {what} -o {}", out.display());
             let started = std::time::Instant::now();

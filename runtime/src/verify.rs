@@ -5,7 +5,7 @@ use crate::gpu::{Gpu, GpuError};
 use crate::upload::{storage_entry, DeviceVolume};
 use crate::volume::LatticeVolume;
 use boxforge::derive::Derivation;
-use boxforge::emit::{emit, EmitOptions, Layout, Variant};
+use boxforge::emit::{emit, Bounds, EmitOptions, EvalForm, Layout, Variant};
 use serde::Serialize;
 
 #[derive(Clone, Debug, Serialize)]
@@ -13,6 +13,9 @@ pub struct VerifyReport {
     pub filter: String,
     pub layout: Layout,
     pub variant: Variant,
+    /// The evaluation form that was emitted (the filter's choice unless forced).
+    pub form: EvalForm,
+    pub bounds: Bounds,
     pub points: usize,
     /// max |GPU value - exact value| (also over eval vs eval_grad.x).
     pub max_abs_err: f64,
@@ -92,6 +95,20 @@ pub fn gpu_eval(
     variant: Variant,
     points: &[[f32; 4]],
 ) -> Result<(Vec<f32>, Vec<[f32; 4]>), GpuError> {
+    gpu_eval_with(gpu, d, vol, variant, None, Bounds::Clamp, points).map(|(v, g, _)| (v, g))
+}
+
+/// [`gpu_eval`] with a forced evaluation form and a bounds policy; also
+/// returns the form that was emitted.
+pub fn gpu_eval_with(
+    gpu: &Gpu,
+    d: &Derivation,
+    vol: &DeviceVolume,
+    variant: Variant,
+    form: Option<EvalForm>,
+    bounds: Bounds,
+    points: &[[f32; 4]],
+) -> Result<(Vec<f32>, Vec<[f32; 4]>, EvalForm), GpuError> {
     let module = emit(
         d,
         &EmitOptions {
@@ -99,11 +116,15 @@ pub fn gpu_eval(
             variant,
             kernels: false,
             command: "boxforge verify".into(),
+            form,
+            bounds,
             ..Default::default()
         },
     )
     .map_err(|e| GpuError::Runtime(e.to_string()))?;
-    gpu_eval_source(gpu, &module.source, &module.file_name, &d.filter.name, vol, points)
+    let used = module.stats.form;
+    let (v, g) = gpu_eval_source(gpu, &module.source, &module.file_name, &d.filter.name, vol, points)?;
+    Ok((v, g, used))
 }
 
 /// Runs any module that defines `<name>_eval` and `<name>_eval_grad` with the
@@ -198,6 +219,23 @@ pub fn verify(
     points: usize,
     seed: u64,
 ) -> Result<VerifyReport, GpuError> {
+    verify_with(gpu, d, layout, variant, None, Bounds::Clamp, points, seed)
+}
+
+/// [`verify`] with a forced evaluation form (None: the filter's own) and a
+/// bounds policy (the random points keep the whole support inside the
+/// volume, so `unchecked` must agree too).
+#[allow(clippy::too_many_arguments)]
+pub fn verify_with(
+    gpu: &Gpu,
+    d: &Derivation,
+    layout: Layout,
+    variant: Variant,
+    form: Option<EvalForm>,
+    bounds: Bounds,
+    points: usize,
+    seed: u64,
+) -> Result<VerifyReport, GpuError> {
     if d.facts.dim != 3 {
         return Err(GpuError::Runtime(format!(
             "{} is {}D: the runtime verifies 3D filters (2D shaders are checked by naga only)",
@@ -207,7 +245,7 @@ pub fn verify(
     let vol = random_volume(d, seed);
     let pts = random_points(d, &vol, points, seed);
     let dv = DeviceVolume::new(gpu, &vol, layout)?;
-    let (values, grads) = gpu_eval(gpu, d, &dv, variant, &pts)?;
+    let (values, grads, used) = gpu_eval_with(gpu, d, &dv, variant, form, bounds, &pts)?;
     let exact = cpu_eval(d, &vol, &pts);
     let (lo, hi) = vol.data.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
     let range = (hi - lo).max(f32::MIN_POSITIVE) as f64;
@@ -224,6 +262,8 @@ pub fn verify(
         filter: d.filter.name.clone(),
         layout,
         variant,
+        form: used,
+        bounds,
         points,
         max_abs_err: max_abs,
         max_rel_grad_err: max_rel,

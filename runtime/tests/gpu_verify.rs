@@ -64,3 +64,37 @@ fn a_missing_adapter_name_is_a_clear_error() {
     let msg = e.to_string();
     assert!(msg.contains("no-such-adapter-xyz") && msg.contains("available"), "{msg}");
 }
+
+/// Every evaluation form the generator offers for a filter computes the same
+/// spline on the device (the cost model only picks among exact forms), and
+/// the unchecked bounds policy agrees where the support is inside the volume.
+#[test]
+fn every_evaluation_form_matches_the_exact_evaluator_on_the_device() {
+    use boxforge::emit::{Bounds, EvalForm};
+    use boxforge_runtime::verify::verify_with;
+    let gpu = gpu();
+    let mut failures = Vec::new();
+    let cases: [(&str, &[EvalForm]); 4] = [
+        ("bcc7", &[EvalForm::Power, EvalForm::Bb, EvalForm::Dense]),
+        ("fcc6", &[EvalForm::Power, EvalForm::Bb]),
+        ("cc_tricubic", &[EvalForm::Factored, EvalForm::Power]),
+        ("bcc12", &[EvalForm::Factored]),
+    ];
+    for (name, forms) in cases {
+        let d = Derivation::new(&boxforge::spec::catalog::get(name).unwrap()).unwrap();
+        for &form in forms {
+            for (layout, bounds) in [(Layout::Embedded, Bounds::Clamp), (Layout::Packed, Bounds::Unchecked)] {
+                let r = verify_with(&gpu, &d, layout, Variant::Fast, Some(form), bounds, 1500, 11).unwrap();
+                assert_eq!(r.form, form, "{name}: the forced form is the one emitted");
+                eprintln!(
+                    "{name} {form:?} {layout:?} {bounds:?}: value {:.2e} grad {:.2e}",
+                    r.max_abs_err, r.max_rel_grad_err
+                );
+                if !r.passed {
+                    failures.push(format!("{name} {form:?} {layout:?} {bounds:?}: {r:?}"));
+                }
+            }
+        }
+    }
+    assert!(failures.is_empty(), "{failures:#?}");
+}

@@ -28,7 +28,7 @@
 
 use crate::build::output::write_atomic;
 use crate::derive::Derivation;
-use crate::emit::{emit, EmitOptions, EmitStats, Layout, Variant};
+use crate::emit::{emit, Bounds, EmitOptions, EmitStats, EvalForm, Layout, Variant};
 use crate::error::{Error, Result};
 use crate::spec::{catalog, Filter};
 use crate::validate::{check_branch_free, validate_wgsl};
@@ -68,6 +68,8 @@ pub struct Builder {
     group: u32,
     binding: u32,
     kernels: bool,
+    form: Option<EvalForm>,
+    bounds: Bounds,
     emit_rerun_if_changed: bool,
 }
 
@@ -100,6 +102,8 @@ impl Builder {
             group: 0,
             binding: 0,
             kernels: true,
+            form: None,
+            bounds: Bounds::Clamp,
             emit_rerun_if_changed: std::env::var_os("OUT_DIR").is_some(),
         }
     }
@@ -145,6 +149,22 @@ impl Builder {
     /// Whether to include the prefilter and min/max compute kernels (default true).
     pub fn kernels(mut self, yes: bool) -> Self {
         self.kernels = yes;
+        self
+    }
+
+    /// Forces an evaluation form for every filter (default: each spec's
+    /// `form`, itself `auto` by default: the cheapest by static op count).
+    /// Forcing [`EvalForm::Factored`] on a filter that is not a tensor
+    /// product makes [`Builder::generate`] fail with [`Error::Spec`].
+    pub fn form(mut self, f: EvalForm) -> Self {
+        self.form = Some(f);
+        self
+    }
+
+    /// Fetch bounds policy (default [`Bounds::Clamp`]); [`Bounds::Unchecked`]
+    /// drops the clamp for callers that pad their volumes.
+    pub fn bounds(mut self, b: Bounds) -> Self {
+        self.bounds = b;
         self
     }
 
@@ -209,6 +229,8 @@ impl Builder {
             binding: self.binding,
             kernels: self.kernels,
             command: BUILDER_COMMAND.to_string(),
+            form: self.form,
+            bounds: self.bounds,
         };
         let mut modules = Vec::new();
         for f in &filters {

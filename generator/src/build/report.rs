@@ -302,20 +302,39 @@ impl Report {
         );
         let _ = writeln!(s, "{}", e.fetch_order.iter().map(iv).collect::<Vec<_>>().join(" → "));
         if !self.shaders.is_empty() {
-            let _ = writeln!(s, "\n| layout | variant | fetches/eval | vector adds | ops in eval | ops in eval_grad |\n|---|---|---|---|---|---|");
+            let _ = writeln!(s, "\n| layout | variant | form | fetches/eval | vector adds | ops in eval | ops in eval_grad |\n|---|---|---|---|---|---|---|");
             for st in &self.shaders {
                 let _ = writeln!(
                     s,
-                    "| {} | {} | {} | {} | {} | {} |",
+                    "| {} | {} | {} | {} | {} | {} | {} |",
                     st.layout.name(),
                     st.variant.name(),
+                    st.form.name(),
                     st.fetches_per_eval,
                     st.vector_adds,
                     st.ops_eval,
                     st.ops_eval_grad
                 );
             }
-            let _ = writeln!(s, "\n(ops: operators, comparisons, selects and builtin calls in the WGSL source; the naive variant's loops are counted once.)");
+            let _ = writeln!(s, "\n(ops: operators, comparisons, selects and builtin calls in the WGSL source; the naive variant's loops are counted once. The naive variant keeps the dense form: it measures branches and lookup tables.)");
+            if let Some(st) = self.shaders.iter().find(|st| st.variant.name() == "fast") {
+                let _ = writeln!(
+                    s,
+                    "\n### Evaluation forms\n\nThe generator emits every exact form available for this filter and keeps the cheapest by its cost model (ops in eval + ops in eval_grad; exact loads are the same for every form). Chosen: **{}**.\n\n| form | fetches | ops in eval | ops in eval_grad | cost |\n|---|---|---|---|---|",
+                    st.form.name()
+                );
+                for f in &st.forms {
+                    let _ = writeln!(
+                        s,
+                        "| {} | {} | {} | {} | {} |",
+                        f.form.name(),
+                        f.fetches,
+                        f.ops_eval,
+                        f.ops_eval_grad,
+                        f.cost()
+                    );
+                }
+            }
         }
         let _ = writeln!(
             s,

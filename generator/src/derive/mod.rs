@@ -5,6 +5,7 @@
 pub mod arrangement;
 pub mod bb;
 pub mod f64_tables;
+pub mod factor;
 pub mod pieces;
 pub mod prefilter;
 pub mod spline;

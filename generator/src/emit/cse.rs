@@ -26,6 +26,26 @@ pub struct LinearMap {
 
 type Key = (usize, usize, u32);
 
+/// Numbers each distinct ratio once, in order of first appearance
+/// (deterministic, so generated files are too).
+#[derive(Default)]
+struct Interner {
+    ids: HashMap<Q, u32>,
+    values: Vec<Q>,
+}
+
+impl Interner {
+    fn id(&mut self, q: Q) -> u32 {
+        if let Some(&id) = self.ids.get(&q) {
+            return id;
+        }
+        let id = self.values.len() as u32;
+        self.values.push(q.clone());
+        self.ids.insert(q, id);
+        id
+    }
+}
+
 impl LinearMap {
     /// The dense map with no shared subexpressions: rows of weights over the inputs.
     pub fn dense(weights: &[Vec<Q>]) -> LinearMap {
@@ -41,21 +61,11 @@ impl LinearMap {
     pub fn shared(weights: &[Vec<Q>]) -> LinearMap {
         let mut map = LinearMap::dense(weights);
         let mut rows: Vec<BTreeMap<usize, Q>> = map.rows.iter().map(|r| r.iter().cloned().collect()).collect();
-        let mut ratio_ids: HashMap<Q, u32> = HashMap::new();
-        let mut ratios: Vec<Q> = Vec::new();
-        let mut intern = |q: Q| -> u32 {
-            if let Some(&id) = ratio_ids.get(&q) {
-                return id;
-            }
-            let id = ratios.len() as u32;
-            ratios.push(q.clone());
-            ratio_ids.insert(q, id);
-            id
-        };
+        let mut ratios = Interner::default();
         // Pair key of two terms (a < b): (a, b, id of w_b / w_a).
-        let mut key_of = |a: (usize, &Q), b: (usize, &Q)| -> Key {
+        let key_of = |ratios: &mut Interner, a: (usize, &Q), b: (usize, &Q)| -> Key {
             let (lo, hi) = if a.0 < b.0 { (a, b) } else { (b, a) };
-            (lo.0, hi.0, intern(hi.1.clone() / lo.1))
+            (lo.0, hi.0, ratios.id(hi.1.clone() / lo.1))
         };
         let mut counts: HashMap<Key, i64> = HashMap::new();
         let mut rows_of: HashMap<Key, Vec<usize>> = HashMap::new();
@@ -63,7 +73,7 @@ impl LinearMap {
             let terms: Vec<(usize, &Q)> = row.iter().map(|(k, c)| (*k, c)).collect();
             for x in 0..terms.len() {
                 for y in x + 1..terms.len() {
-                    let k = key_of(terms[x], terms[y]);
+                    let k = key_of(&mut ratios, terms[x], terms[y]);
                     *counts.entry(k).or_default() += 1;
                     rows_of.entry(k).or_default().push(i);
                 }
@@ -77,7 +87,7 @@ impl LinearMap {
                 continue; // stale entry
             }
             let (a, b, qid) = key;
-            let q = ratios[qid as usize].clone();
+            let q = ratios.values[qid as usize].clone();
             let t = next_var;
             next_var += 1;
             map.defs.push((a, b, q.clone()));
@@ -95,10 +105,10 @@ impl LinearMap {
                 let others: Vec<(usize, Q)> =
                     row.iter().filter(|(k, _)| **k != a && **k != b).map(|(k, c)| (*k, c.clone())).collect();
                 let wb = row[&b].clone();
-                let mut dec = vec![key_of((a, &wa), (b, &wb))];
+                let mut dec = vec![key_of(&mut ratios, (a, &wa), (b, &wb))];
                 for (k, ck) in &others {
-                    dec.push(key_of((a, &wa), (*k, ck)));
-                    dec.push(key_of((b, &wb), (*k, ck)));
+                    dec.push(key_of(&mut ratios, (a, &wa), (*k, ck)));
+                    dec.push(key_of(&mut ratios, (b, &wb), (*k, ck)));
                 }
                 for k in dec {
                     if let Some(n) = counts.get_mut(&k) {
@@ -112,7 +122,7 @@ impl LinearMap {
                 row.remove(&a);
                 row.remove(&b);
                 for (k, ck) in &others {
-                    let nk = key_of((t, &wa), (*k, ck));
+                    let nk = key_of(&mut ratios, (t, &wa), (*k, ck));
                     let n = counts.entry(nk).or_default();
                     *n += 1;
                     rows_of.entry(nk).or_default().push(i);
@@ -146,7 +156,7 @@ impl LinearMap {
 
     /// Writes the program; `inputs` names the input variables. Returns the
     /// names of the rows ("0.0" for an empty row).
-    pub fn emit(&self, body: &mut Body, inputs: &[String], prefix: &str) -> Vec<String> {
+    pub(crate) fn emit(&self, body: &mut Body, inputs: &[String], prefix: &str) -> Vec<String> {
         let mut names: Vec<String> = inputs.to_vec();
         // A definition is only written if some row or later definition uses it.
         let mut used = vec![false; self.inputs + self.defs.len()];
@@ -212,7 +222,7 @@ fn row_expr(r: &[(usize, Q)], names: &[String]) -> String {
         classes.entry(c.abs()).or_default().push((c.is_negative(), names[*k].as_str()));
     }
     let mut out = String::new();
-    let mut push = |neg: bool, piece: &str, out: &mut String| {
+    let push = |neg: bool, piece: &str, out: &mut String| {
         if out.is_empty() {
             if neg {
                 out.push('-');

@@ -26,13 +26,7 @@ fn mul_add(body: &mut Body, a: &Option<String>, x: &str, b: &Option<String>) -> 
 
 /// Horner over variables `vars[k..]` for the monomials in `coeffs`
 /// (exponents restricted to those variables).
-fn horner_rec(
-    body: &mut Body,
-    coeffs: &BTreeMap<Vec<u32>, String>,
-    vars: &[String],
-    k: usize,
-    grad: bool,
-) -> Dual {
+fn horner_rec(body: &mut Body, coeffs: &BTreeMap<Vec<u32>, String>, vars: &[String], k: usize, grad: bool) -> Dual {
     let s = vars.len();
     if k == s {
         let v = coeffs.get(&vec![0u32; s]).cloned();
@@ -69,7 +63,7 @@ fn horner_rec(
 
 /// Emits P(u) = sum_e c_e u^e. Returns (value, gradient components) as
 /// expressions ("0.0" for zeros); the gradient is empty unless `grad`.
-pub fn emit_horner(
+pub(crate) fn emit_horner(
     body: &mut Body,
     monomials: &[(Vec<u32>, String)],
     vars: &[String],
@@ -95,7 +89,9 @@ mod tests {
             let (name, expr) = line.split_once(" = ").unwrap();
             let v: f64 = expr
                 .split(" + ")
-                .map(|t| t.split(" * ").map(|f| env.get(f).copied().unwrap_or_else(|| f.parse().unwrap())).product::<f64>())
+                .map(|t| {
+                    t.split(" * ").map(|f| env.get(f).copied().unwrap_or_else(|| f.parse().unwrap())).product::<f64>()
+                })
                 .sum();
             env.insert(name.to_string(), v);
         }
@@ -120,7 +116,9 @@ mod tests {
             env.insert(n.clone(), x);
         }
         run(&body.text, &mut env);
-        let get = |e: &str, env: &std::collections::HashMap<String, f64>| env.get(e).copied().unwrap_or_else(|| e.parse().unwrap());
+        let get = |e: &str, env: &std::collections::HashMap<String, f64>| {
+            env.get(e).copied().unwrap_or_else(|| e.parse().unwrap())
+        };
         let (want, want_g) = crate::math::poly::eval_poly_f64(&exps, &coef, &u);
         assert!((get(&v, &env) - want).abs() < 1e-12);
         for j in 0..3 {

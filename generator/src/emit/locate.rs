@@ -2,6 +2,19 @@
 //! generic class select), the candidate choice by plane tests, and the
 //! axis-aligned fetch walk.
 
+/// How the polynomial of each reference piece is written (the plan-based forms).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PieceForm {
+    /// BB coefficients (power form on non-simplices) as dense combinations
+    /// of every sample, de Casteljau: the first milestone's form.
+    Dense,
+    /// Power form: monomial coefficients with shared subexpressions, Horner.
+    Power,
+    /// BB coefficients with shared subexpressions, de Casteljau (power form
+    /// with Horner on non-simplicial pieces).
+    Bb,
+}
+
 use super::{forms::*, naive::*, writer::*};
 use crate::derive::Derivation;
 use crate::emit::plan::{Candidate, Locate, Plan};
@@ -235,7 +248,15 @@ pub(crate) fn local_coords(sh: &Shapes, d: &Derivation, plan: &Plan, c: &Candida
 }
 
 /// The body of eval (grad = false) or eval_grad.
-pub(crate) fn emit_eval_body(d: &Derivation, plan: &Plan, sh: &Shapes, name: &str, grad: bool, naive: bool) -> String {
+pub(crate) fn emit_eval_body(
+    d: &Derivation,
+    plan: &Plan,
+    sh: &Shapes,
+    name: &str,
+    grad: bool,
+    naive: bool,
+    piece: PieceForm,
+) -> String {
     let mut body = Body::new();
     let frame =
         if naive { emit_frame_naive(&mut body, sh, plan, name) } else { emit_frame(&mut body, sh, plan, name, false) };
@@ -248,9 +269,9 @@ pub(crate) fn emit_eval_body(d: &Derivation, plan: &Plan, sh: &Shapes, name: &st
     let mut values: Vec<(usize, String, Option<String>)> = Vec::new();
     for r in plan.used_references() {
         let forms = d.forms(r);
-        let form = match &forms.bb {
-            Some(bb) => Form::Bb(bb),
-            None => Form::Power(&forms.polys),
+        let form = match (&forms.bb, piece) {
+            (Some(bb), PieceForm::Dense | PieceForm::Bb) => Form::Bb(bb),
+            _ => Form::Power(&forms.polys),
         };
         let (indices, weights) = form_weights(&form);
         // samples per stencil index, via the slot mapping.
@@ -263,8 +284,10 @@ pub(crate) fn emit_eval_body(d: &Derivation, plan: &Plan, sh: &Shapes, name: &st
         }
         let coeffs = if naive {
             emit_coefficients_naive(&mut body, &weights, &per_k, &format!("{name}_W{r}"))
-        } else {
+        } else if piece == PieceForm::Dense {
             emit_coefficients(&mut body, &weights, &per_k, "b")
+        } else {
+            crate::emit::cse::LinearMap::shared(&weights).emit(&mut body, &per_k, "b")
         };
         let cands: Vec<(usize, &Candidate)> =
             plan.candidates.iter().enumerate().filter(|(_, c)| c.reference == r).collect();
@@ -284,7 +307,16 @@ pub(crate) fn emit_eval_body(d: &Derivation, plan: &Plan, sh: &Shapes, name: &st
             }
             acc
         };
-        let (v, g) = emit_form_eval(&mut body, sh, &form, &indices, &coeffs, &u, grad, d.facts.degree);
+        let (v, g) = match (&form, piece) {
+            (Form::Power(_), PieceForm::Power | PieceForm::Bb) if !naive => {
+                let vars: Vec<String> = (0..sh.s).map(|i| format!("{u}.{}", AXES[i])).collect();
+                let monomials: Vec<(Vec<u32>, String)> = indices.iter().cloned().zip(coeffs.iter().cloned()).collect();
+                let (v, g) = crate::emit::horner::emit_horner(&mut body, &monomials, &vars, grad);
+                let v = body.bind("v", &v);
+                (v, grad.then(|| body.bind("g", &sh.fvec(&g))))
+            }
+            _ => emit_form_eval(&mut body, sh, &form, &indices, &coeffs, &u, grad, d.facts.degree),
+        };
         values.push((r, v, g));
     }
     // Pick the chosen candidate's reference.

@@ -10,8 +10,11 @@
 
 pub mod bounds;
 pub mod coset;
+pub mod cse;
+pub mod factored;
 pub mod fetch_order;
 pub mod forms;
+pub mod horner;
 pub mod locate;
 pub mod naive;
 pub mod plan;
@@ -20,7 +23,7 @@ pub mod writer;
 use bounds::cube_bounds_fn;
 use coset::helpers;
 pub use coset::{coset_of, coset_pivots};
-use locate::emit_eval_body;
+use locate::{emit_eval_body, PieceForm};
 use naive::naive_tables;
 pub use writer::{count_ops, lit};
 use writer::{Shapes, AXES};
@@ -29,6 +32,7 @@ use crate::derive::Derivation;
 use crate::emit::plan::{Locate, Plan};
 use crate::error::{Error, Result};
 use crate::math::linalg::IVec;
+pub use crate::spec::EvalForm;
 use serde::Serialize;
 use std::fmt::Write;
 
@@ -95,6 +99,56 @@ pub struct EmitOptions {
     pub kernels: bool,
     /// The command named in the header.
     pub command: String,
+    /// Evaluation form; None: the filter's own (`form` in its spec, default auto).
+    pub form: Option<EvalForm>,
+    /// Out-of-range fetches: clamp to the volume (default) or trust the caller.
+    pub bounds: Bounds,
+}
+
+/// What a fetch does with positions outside the volume.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Bounds {
+    /// Clamp every fetch to the volume (`textureDimensions`): safe for any input.
+    #[default]
+    Clamp,
+    /// No clamp: for callers that pad their volumes by the filter's support
+    /// (WebGPU's robust access still keeps stray reads in bounds).
+    Unchecked,
+}
+
+impl Bounds {
+    pub fn name(self) -> &'static str {
+        match self {
+            Bounds::Clamp => "clamp",
+            Bounds::Unchecked => "unchecked",
+        }
+    }
+    pub fn parse(s: &str) -> Option<Bounds> {
+        match s {
+            "clamp" => Some(Bounds::Clamp),
+            "unchecked" => Some(Bounds::Unchecked),
+            _ => None,
+        }
+    }
+}
+
+/// Static cost of one evaluation form, as the cost model sees it.
+#[derive(Clone, Debug, Serialize, PartialEq, Eq)]
+pub struct FormCost {
+    pub form: EvalForm,
+    pub fetches: usize,
+    pub ops_eval: usize,
+    pub ops_eval_grad: usize,
+}
+
+impl FormCost {
+    /// The cost model: every operator, comparison, select and builtin call
+    /// in eval plus eval_grad counts 1. Exact loads are the same for every
+    /// form (the stencil), so they do not enter the choice.
+    pub fn cost(&self) -> usize {
+        self.ops_eval + self.ops_eval_grad
+    }
 }
 
 impl Default for EmitOptions {
@@ -106,6 +160,8 @@ impl Default for EmitOptions {
             binding: 0,
             kernels: true,
             command: "boxforge generate".into(),
+            form: None,
+            bounds: Bounds::Clamp,
         }
     }
 }
@@ -124,6 +180,10 @@ pub struct EmitStats {
     /// source of `eval` / `eval_grad` (a static count, not a timing).
     pub ops_eval: usize,
     pub ops_eval_grad: usize,
+    /// The form used, and the static cost of every form available here.
+    pub form: EvalForm,
+    pub forms: Vec<FormCost>,
+    pub bounds: Bounds,
 }
 
 #[derive(Clone, Debug)]
@@ -148,15 +208,39 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
     let sh = Shapes::new(s);
     let name = &d.filter.name;
     let naive = opts.variant == Variant::Naive;
-    let eval_body = emit_eval_body(d, &plan, &sh, name, false, naive);
-    let grad_body = emit_eval_body(d, &plan, &sh, name, true, naive);
+    let requested = opts.form.unwrap_or(d.filter.form);
+    let (form, forms, eval_body, grad_body) = if naive {
+        // The naive variant measures branches and tables, on the dense form.
+        let e = emit_eval_body(d, &plan, &sh, name, false, true, PieceForm::Dense);
+        let g = emit_eval_body(d, &plan, &sh, name, true, true, PieceForm::Dense);
+        let cost = FormCost {
+            form: EvalForm::Dense,
+            fetches: plan.fetches(),
+            ops_eval: count_ops(&e),
+            ops_eval_grad: count_ops(&g),
+        };
+        (EvalForm::Dense, vec![cost], e, g)
+    } else {
+        choose_form(d, &plan, &sh, name, requested)?
+    };
+    let fetches = match form {
+        EvalForm::Factored => forms.iter().find(|f| f.form == form).map(|f| f.fetches).unwrap_or(0),
+        _ => plan.fetches(),
+    };
     let mut helper_text = helpers(&sh, &plan, name);
     if naive {
         helper_text.push_str(&naive_tables(d, &plan, &sh, name));
         helper_text.push('\n');
     }
     if opts.kernels {
-        helper_text.push_str(&cube_bounds_fn(d, &sh, name));
+        // Tensor-product filters bound each cube through the factorisation
+        // (a contraction, not dense weights of every sample).
+        match d.factorisation() {
+            Some(fac) if !naive && fac.knots_on_cube_faces() => {
+                helper_text.push_str(&factored::emit_factored_bounds(&fac, &sh, name))
+            }
+            _ => helper_text.push_str(&cube_bounds_fn(d, &sh, name)),
+        }
     }
     let swz: String = AXES[..s].concat();
     let (coset_expr, linear_expr, cosets, coset_formula) =
@@ -208,8 +292,11 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
         dim => s,
         layout => opts.layout.name(),
         variant => opts.variant.name(),
-        locate => match plan.locate { Locate::Fold { sort: true } => "fold + sorting network + plane tests", Locate::Fold { sort: false } => "fold + plane tests", Locate::Generic => "generic select over cube classes and cells" },
-        fetches => plan.fetches(),
+        locate => if form == EvalForm::Factored { "tensor product: per coset floor and fraction, no cell location" } else { match plan.locate { Locate::Fold { sort: true } => "fold + sorting network + plane tests", Locate::Fold { sort: false } => "fold + plane tests", Locate::Generic => "generic select over cube classes and cells" } },
+        fetches => fetches,
+        form => form.name(),
+        form_costs => forms.iter().map(|f| format!("{} {}/{}", f.form.name(), f.ops_eval, f.ops_eval_grad)).collect::<Vec<_>>().join(", "),
+        bounds => opts.bounds.name(),
         vector_adds => plan.vector_adds,
         matvec_adds => plan.matvec_adds,
         group => opts.group,
@@ -233,6 +320,7 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
         block_volume => block_volume,
         cube_in_block => cube_in_block,
         prefilter_body => prefilter_body,
+        clamp => opts.bounds == Bounds::Clamp,
     };
     let source = tmpl.render(ctx).map_err(|e| Error::Spec { origin: "templates".into(), message: e.to_string() })?;
     let stats = EmitStats {
@@ -240,13 +328,65 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
         variant: opts.variant,
         locate: format!("{:?}", plan.locate),
         candidates: plan.candidates.len(),
-        fetches_per_eval: plan.fetches(),
+        fetches_per_eval: fetches,
         vector_adds: plan.vector_adds,
         matvec_adds: plan.matvec_adds,
         ops_eval: count_ops(&eval_body),
         ops_eval_grad: count_ops(&grad_body),
+        form,
+        forms,
+        bounds: opts.bounds,
     };
     Ok(Emitted { file_name: file_name(name, opts.layout, opts.variant), source, stats })
+}
+
+/// Emits every available form, and picks the requested one or (auto) the
+/// cheapest by [`FormCost::cost`]; ties go to the earlier of factored,
+/// power, bb, dense. Returns (form, every form's cost, eval body, grad body).
+fn choose_form(
+    d: &Derivation,
+    plan: &Plan,
+    sh: &Shapes,
+    name: &str,
+    requested: EvalForm,
+) -> Result<(EvalForm, Vec<FormCost>, String, String)> {
+    let fac = d.factorisation();
+    if requested == EvalForm::Factored && fac.is_none() {
+        return Err(Error::Spec {
+            origin: format!("filter {name}"),
+            message: "form = \"factored\" needs every direction along a coordinate axis, one length per axis, \
+                      and that length's axis vector in the lattice; use form = \"auto\", \"power\" or \"bb\""
+                .into(),
+        });
+    }
+    let mut bodies: Vec<(EvalForm, usize, String, String)> = Vec::new();
+    let wanted = |f: EvalForm| requested == EvalForm::Auto || requested == f;
+    if let Some(fac) = &fac {
+        if wanted(EvalForm::Factored) {
+            let e = factored::emit_factored_body(fac, sh, name, false);
+            let g = factored::emit_factored_body(fac, sh, name, true);
+            bodies.push((EvalForm::Factored, fac.fetches(), e, g));
+        }
+    }
+    // The tensor forms of large filters are far cheaper than the plan-based
+    // ones; skip deriving those (CSE over 128 x 220 weights) unless asked.
+    let skip_plan_forms = requested == EvalForm::Auto && fac.is_some() && plan.fetches() > 64;
+    for (f, piece) in
+        [(EvalForm::Power, PieceForm::Power), (EvalForm::Bb, PieceForm::Bb), (EvalForm::Dense, PieceForm::Dense)]
+    {
+        if wanted(f) && !skip_plan_forms {
+            let e = emit_eval_body(d, plan, sh, name, false, false, piece);
+            let g = emit_eval_body(d, plan, sh, name, true, false, piece);
+            bodies.push((f, plan.fetches(), e, g));
+        }
+    }
+    let forms: Vec<FormCost> = bodies
+        .iter()
+        .map(|(f, n, e, g)| FormCost { form: *f, fetches: *n, ops_eval: count_ops(e), ops_eval_grad: count_ops(g) })
+        .collect();
+    let best = (0..forms.len()).min_by_key(|&i| (forms[i].cost(), i)).expect("at least one form");
+    let (f, _, e, g) = bodies.swap_remove(best);
+    Ok((f, forms, e, g))
 }
 
 /// The templates, embedded at build time so the generator works as a

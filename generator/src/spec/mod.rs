@@ -34,6 +34,43 @@ impl Default for Caps {
     }
 }
 
+/// The exact evaluation form of the emitted `eval` / `eval_grad`
+/// (`form = "..."` in a spec; `auto` lets the generator pick the cheapest).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Deserialize, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum EvalForm {
+    /// The cheapest available form by the cost model (static op count).
+    #[default]
+    Auto,
+    /// Tensor-product filters: 1D weights per axis, contraction axis by axis.
+    Factored,
+    /// Monomial coefficients with shared subexpressions, nested Horner.
+    Power,
+    /// BB coefficients with shared subexpressions, de Casteljau.
+    Bb,
+    /// BB coefficients as dense sums of every sample (the first milestone's form).
+    Dense,
+}
+
+impl EvalForm {
+    pub const ALL: [EvalForm; 5] = [EvalForm::Auto, EvalForm::Factored, EvalForm::Power, EvalForm::Bb, EvalForm::Dense];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            EvalForm::Auto => "auto",
+            EvalForm::Factored => "factored",
+            EvalForm::Power => "power",
+            EvalForm::Bb => "bb",
+            EvalForm::Dense => "dense",
+        }
+    }
+
+    /// Parses a form name (`auto`, `factored`, `power`, `bb`, `dense`).
+    pub fn parse(s: &str) -> Option<EvalForm> {
+        EvalForm::ALL.into_iter().find(|f| f.name() == s)
+    }
+}
+
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawSpec {
@@ -44,6 +81,8 @@ struct RawSpec {
     directions: Vec<Vec<toml::Value>>,
     #[serde(default)]
     caps: Caps,
+    #[serde(default)]
+    form: EvalForm,
 }
 
 #[derive(Debug, Deserialize)]
@@ -61,6 +100,8 @@ pub struct Filter {
     pub lattice: Lattice,
     pub directions: Vec<IVec>,
     pub caps: Caps,
+    /// The evaluation form asked for (default `auto`).
+    pub form: EvalForm,
 }
 
 fn integer(v: &toml::Value, what: &str) -> Result<i64> {
@@ -99,7 +140,9 @@ impl Filter {
             .enumerate()
             .map(|(i, d)| integer_vector(d, &format!("direction {i}")))
             .collect::<Result<Vec<_>>>()?;
-        Filter::new(&raw.name, &raw.description, lattice, directions, raw.caps)
+        let mut filter = Filter::new(&raw.name, &raw.description, lattice, directions, raw.caps)?;
+        filter.form = raw.form;
+        Ok(filter)
     }
 
     /// Reads and validates a spec file.
@@ -153,7 +196,14 @@ impl Filter {
         if degree > caps.max_degree {
             return Err(Error::DegreeCap { degree, cap: caps.max_degree });
         }
-        Ok(Filter { name: name.to_string(), description: description.to_string(), lattice, directions, caps })
+        Ok(Filter {
+            name: name.to_string(),
+            description: description.to_string(),
+            lattice,
+            directions,
+            caps,
+            form: EvalForm::Auto,
+        })
     }
 
     pub fn dim(&self) -> usize {

@@ -1,0 +1,238 @@
+//! Factorisation of tensor-product box splines (EVALUATION_FORMS.md §3).
+//!
+//! When every direction is parallel to a coordinate axis, the box spline is
+//! a product of one-dimensional box splines, one per axis: for n_i copies of
+//! a_i e_i, M_i(t) = B_{n_i}(t / a_i) / a_i with B_n the cardinal B-spline of
+//! order n. If moreover a_i e_i lies in the lattice L, then L is a union of
+//! cosets v + diag(a) Z^s, and on each coset the spline is a tensor product:
+//!
+//!   s(x) = |det G| / prod a_i * sum_v sum_m c_{v + a m} prod_i B_{n_i}(s_i - m_i),
+//!   s_i = (x_i - v_i) / a_i + n_i / 2.
+//!
+//! With f = floor(s) and t = s - f, sample m_i = f_i - k has weight
+//! B_n(t + k), a polynomial piece in t. The pieces are derived here exactly
+//! by repeated convolution of the box (B_{n+1}(x) = int_{x-1}^x B_n), from the
+//! directions alone; the tests check the product against the PP-form.
+
+use crate::derive::Derivation;
+use crate::math::exact::Q;
+use crate::math::linalg::IVec;
+use crate::spec::Filter;
+
+/// One axis of a tensor-product filter.
+#[derive(Clone, Debug, PartialEq)]
+pub struct AxisFactor {
+    /// Length a of the directions along this axis (the coset spacing).
+    pub step: i64,
+    /// Number n of directions along this axis (B-spline order; degree n - 1).
+    pub order: usize,
+    /// `pieces[k]` = coefficients (power basis in t) of B_n(t + k), t in [0, 1):
+    /// the weight of the sample k steps below floor(s).
+    pub pieces: Vec<Vec<Q>>,
+}
+
+/// The tensor-product structure of a filter, when it has one.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Factorisation {
+    pub axes: Vec<AxisFactor>,
+    /// Representatives of the cosets of diag(a) Z^s in L, in [0, a_i).
+    pub cosets: Vec<IVec>,
+    /// |det G| / prod a_i.
+    pub scale: Q,
+}
+
+/// Pieces of the cardinal B-spline of order n: `out[k]` is B_n(k + t) in
+/// the power basis of t in [0, 1).
+pub fn cardinal_bspline_pieces(n: usize) -> Vec<Vec<Q>> {
+    let mut pieces: Vec<Vec<Q>> = vec![vec![Q::one()]];
+    for order in 1..n {
+        // I_j(t) = int_0^t Q_j, with Q_j the piece on [j, j+1).
+        let integral = |p: &Vec<Q>| -> Vec<Q> {
+            let mut out = vec![Q::zero()];
+            for (e, c) in p.iter().enumerate() {
+                out.push(c.clone() / Q::int(e as i64 + 1));
+            }
+            out
+        };
+        let ints: Vec<Vec<Q>> = pieces.iter().map(integral).collect();
+        let at_one = |p: &Vec<Q>| -> Q { p.iter().cloned().sum() };
+        // B_{order+1}(k + t) = I_{k-1}(1) - I_{k-1}(t) + I_k(t).
+        let mut next = Vec::new();
+        for k in 0..=order {
+            let mut p = vec![Q::zero(); order + 1];
+            if k >= 1 {
+                let prev = &ints[k - 1];
+                p[0] += &at_one(prev);
+                for (e, c) in prev.iter().enumerate() {
+                    p[e] -= c;
+                }
+            }
+            if k < order {
+                for (e, c) in ints[k].iter().enumerate() {
+                    p[e] += c;
+                }
+            }
+            next.push(p);
+        }
+        pieces = next;
+    }
+    pieces
+}
+
+impl Factorisation {
+    /// The factorisation of `filter`, or None when some direction is not
+    /// axis-aligned, an axis mixes direction lengths, or a_i e_i is not in L.
+    pub fn of(filter: &Filter) -> Option<Factorisation> {
+        let s = filter.dim();
+        let mut steps: Vec<Option<i64>> = vec![None; s];
+        let mut orders = vec![0usize; s];
+        for d in &filter.directions {
+            let nz: Vec<usize> = (0..s).filter(|&i| d[i] != 0).collect();
+            if nz.len() != 1 {
+                return None;
+            }
+            let (i, a) = (nz[0], d[nz[0]].abs());
+            match steps[i] {
+                None => steps[i] = Some(a),
+                Some(b) if b == a => {}
+                Some(_) => return None,
+            }
+            orders[i] += 1;
+        }
+        let steps: Vec<i64> = steps.into_iter().collect::<Option<Vec<_>>>()?;
+        let lattice = &filter.lattice;
+        for i in 0..s {
+            let mut e = vec![0; s];
+            e[i] = steps[i];
+            if !lattice.contains(&e) {
+                return None;
+            }
+        }
+        // Cosets: lattice points of the box prod [0, a_i).
+        let mut cosets = Vec::new();
+        let mut v = vec![0i64; s];
+        loop {
+            if lattice.contains(&v) {
+                cosets.push(v.clone());
+            }
+            let mut k = 0;
+            loop {
+                if k == s {
+                    let prod: i64 = steps.iter().product();
+                    let scale = Q::frac(lattice.det() as i64, prod);
+                    let axes = (0..s)
+                        .map(|i| AxisFactor {
+                            step: steps[i],
+                            order: orders[i],
+                            pieces: cardinal_bspline_pieces(orders[i]),
+                        })
+                        .collect();
+                    return Some(Factorisation { axes, cosets, scale });
+                }
+                v[k] += 1;
+                if v[k] < steps[k] {
+                    break;
+                }
+                v[k] = 0;
+                k += 1;
+            }
+        }
+    }
+
+    /// Whether every knot lies on a face of the unit cubes [z, z+1] (a_i n_i
+    /// even on every axis), so each coset is one polynomial piece per cube.
+    pub fn knots_on_cube_faces(&self) -> bool {
+        self.axes.iter().all(|a| (a.step * a.order as i64) % 2 == 0)
+    }
+
+    /// Samples per evaluation: cosets x prod n_i.
+    pub fn fetches(&self) -> usize {
+        self.cosets.len() * self.axes.iter().map(|a| a.order).product::<usize>()
+    }
+
+    /// Exact evaluation (the CPU mirror of the emitted code).
+    pub fn eval_exact(&self, x: &[Q], data: &dyn Fn(&[i64]) -> Q) -> Q {
+        let s = self.axes.len();
+        let mut total = Q::zero();
+        for v in &self.cosets {
+            // Per axis: base sample and weights.
+            let mut base = vec![0i64; s];
+            let mut weights: Vec<Vec<Q>> = Vec::new();
+            for i in 0..s {
+                let a = &self.axes[i];
+                let si = (&x[i] - &Q::int(v[i])) / Q::int(a.step) + Q::frac(a.order as i64, 2);
+                let f = si.floor();
+                let t = &si - &f;
+                base[i] = v[i] + a.step * f.to_i64().expect("finite point");
+                weights.push(a.pieces.iter().map(|p| p.iter().rev().fold(Q::zero(), |acc, c| acc * &t + c)).collect());
+            }
+            let orders: Vec<usize> = self.axes.iter().map(|a| a.order).collect();
+            for k in odometer(&orders) {
+                let j: IVec = (0..s).map(|i| base[i] - self.axes[i].step * k[i] as i64).collect();
+                let w = (0..s).fold(Q::one(), |w, i| w * &weights[i][k[i]]);
+                if !w.is_zero() {
+                    total += &(w * data(&j));
+                }
+            }
+        }
+        total * &self.scale
+    }
+}
+
+/// Every multi-index k with 0 <= k_i < n_i, first index fastest.
+pub fn odometer(n: &[usize]) -> Vec<Vec<usize>> {
+    let mut out = vec![vec![]];
+    for &ni in n.iter().rev() {
+        out = (0..ni).flat_map(|k| out.iter().map(move |rest| [vec![k], rest.clone()].concat())).collect();
+    }
+    // Reorder so that index 0 varies fastest.
+    out.sort_by(|a, b| a.iter().rev().cmp(b.iter().rev()));
+    out
+}
+
+impl Derivation {
+    /// The tensor-product factorisation of this filter, when it has one.
+    pub fn factorisation(&self) -> Option<Factorisation> {
+        Factorisation::of(&self.filter)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::spec::catalog;
+
+    #[test]
+    fn cubic_pieces_are_the_cardinal_cubic_bspline() {
+        // B_4 on [0,1): t^3/6; the pieces sum to one (partition of unity)
+        // and are C^2 across integer knots.
+        let p = cardinal_bspline_pieces(4);
+        assert_eq!(p.len(), 4);
+        assert_eq!(p[0], vec![Q::zero(), Q::zero(), Q::zero(), Q::frac(1, 6)]);
+        for e in 0..4 {
+            let sum: Q = p.iter().map(|q| q[e].clone()).sum();
+            assert_eq!(sum, if e == 0 { Q::one() } else { Q::zero() });
+        }
+        let at = |q: &Vec<Q>, t: &Q| q.iter().rev().fold(Q::zero(), |acc, c| acc * t + c);
+        for k in 0..3 {
+            assert_eq!(at(&p[k], &Q::one()), at(&p[k + 1], &Q::zero()));
+        }
+    }
+
+    #[test]
+    fn factorised_evaluation_equals_the_pp_form() {
+        for name in ["cc_tricubic", "cc_trilinear", "bcc12"] {
+            let f = catalog::get(name).unwrap();
+            let fac = Factorisation::of(&f).expect("tensor product");
+            let d = Derivation::new(&f).unwrap();
+            let data = |j: &[i64]| Q::int((j[0] * 7 + j[1] * 3 - j[2] * 5).rem_euclid(11) - 4);
+            for i in 0..12 {
+                let x: Vec<Q> = (0..3).map(|c| Q::frac(((i * 37 + c * 101) % 97) as i64 - 40, 29)).collect();
+                assert_eq!(fac.eval_exact(&x, &data), d.eval_exact(&x, &data), "{name} at {x:?}");
+            }
+        }
+        for name in ["bcc7", "fcc6", "zp"] {
+            assert!(Factorisation::of(&catalog::get(name).unwrap()).is_none(), "{name}");
+        }
+    }
+}

@@ -1,0 +1,264 @@
+//! The factored form of a tensor-product filter ([`Factorisation`]): per
+//! coset, one-dimensional weights per axis, then a contraction axis by axis
+//! (tricubic: 3 x 4 weights, then 16 + 4 + 1 four-term sums). The gradient
+//! carries derivative weights through the same contraction.
+
+use super::writer::{lit, Body, Shapes, AXES};
+use crate::derive::factor::{odometer, Factorisation};
+use crate::math::exact::Q;
+
+/// sum_e c_e t^e with the powers named in `pows` (pows[e] = t^e; pows[0] unused).
+fn poly_expr(coeffs: &[Q], pows: &[String]) -> String {
+    let mut out = String::new();
+    for (e, c) in coeffs.iter().enumerate() {
+        if c.is_zero() {
+            continue;
+        }
+        let mag = c.abs();
+        let piece = if e == 0 {
+            lit(&mag)
+        } else if mag.is_one() {
+            pows[e].clone()
+        } else {
+            format!("{} * {}", lit(&mag), pows[e])
+        };
+        if out.is_empty() {
+            out = if c.is_negative() { format!("-{piece}") } else { piece };
+        } else {
+            out.push_str(if c.is_negative() { " - " } else { " + " });
+            out.push_str(&piece);
+        }
+    }
+    if out.is_empty() {
+        "0.0".into()
+    } else {
+        out
+    }
+}
+
+/// sum_k w_k x_k over non-zero weights.
+fn dot(ws: &[String], xs: &[String]) -> String {
+    let terms: Vec<String> = ws
+        .iter()
+        .zip(xs)
+        .filter(|(w, _)| *w != "0.0")
+        .map(|(w, x)| if w == "1.0" { x.clone() } else { format!("{w} * {x}") })
+        .collect();
+    if terms.is_empty() {
+        "0.0".into()
+    } else {
+        terms.join(" + ")
+    }
+}
+
+/// A partially contracted tensor: which derivative it carries (None: value)
+/// and its entries over the axes not yet contracted (axis-major, first fastest).
+struct Tensor {
+    deriv: Option<usize>,
+    entries: Vec<String>,
+}
+
+/// The body of `<f>_eval` (grad = false) or `<f>_eval_grad` in factored form.
+pub(crate) fn emit_factored_body(fac: &Factorisation, sh: &Shapes, name: &str, grad: bool) -> String {
+    let s = sh.s;
+    let mut body = Body::new();
+    let orders: Vec<usize> = fac.axes.iter().map(|a| a.order).collect();
+    let mut coset_values: Vec<String> = Vec::new();
+    let mut coset_grads: Vec<Vec<String>> = Vec::new();
+    for v in &fac.cosets {
+        // s = (p - v) / a + n / 2.
+        let mul: Vec<Q> = fac.axes.iter().map(|a| Q::frac(1, a.step)).collect();
+        let add: Vec<Q> =
+            (0..s).map(|i| Q::frac(fac.axes[i].order as i64, 2) - Q::frac(v[i], fac.axes[i].step)).collect();
+        let vecq = |q: &[Q]| -> String {
+            if q.iter().all(|x| *x == q[0]) {
+                lit(&q[0])
+            } else {
+                sh.fvec(&q.iter().map(lit).collect::<Vec<_>>())
+            }
+        };
+        let mut sx = "p".to_string();
+        if !mul.iter().all(|m| m.is_one()) {
+            sx = format!("{sx} * {}", vecq(&mul));
+        }
+        if !add.iter().all(|a| a.is_zero()) {
+            sx = format!("{sx} + {}", vecq(&add));
+        }
+        let sv = body.bind("s", &sx);
+        let fl = body.bind("fl", &format!("floor({sv})"));
+        let t = body.bind("t", &format!("{sv} - {fl}"));
+        let steps: Vec<i64> = fac.axes.iter().map(|a| a.step).collect();
+        let mut jb = format!("{}({fl})", sh.veci);
+        if !steps.iter().all(|&a| a == 1) {
+            jb = if steps.iter().all(|&a| a == steps[0]) {
+                format!("{jb} * {}", steps[0])
+            } else {
+                format!("{jb} * {}", sh.ivec(&steps))
+            };
+        }
+        if v.iter().any(|&x| x != 0) {
+            jb = format!("{jb} + {}", sh.ivec(v));
+        }
+        let jb = body.bind("jb", &jb);
+        // Weights per axis; the scale is folded into the last axis.
+        let mut w: Vec<Vec<String>> = Vec::new();
+        let mut dw: Vec<Vec<String>> = Vec::new();
+        for (i, a) in fac.axes.iter().enumerate() {
+            let ti = format!("{t}.{}", AXES[i]);
+            let deg = a.order - 1;
+            let mut pows = vec!["1.0".to_string(), ti.clone()];
+            for e in 2..=deg {
+                let prev = pows[e - 1].clone();
+                pows.push(body.bind("tp", &format!("{prev} * {ti}")));
+            }
+            let scale = if i == s - 1 { fac.scale.clone() } else { Q::one() };
+            let mut wi = Vec::new();
+            let mut dwi = Vec::new();
+            for piece in &a.pieces {
+                let c: Vec<Q> = piece.iter().map(|x| x.clone() * &scale).collect();
+                let e = poly_expr(&c, &pows);
+                wi.push(if e.contains(' ') || e.contains('*') { body.bind("wt", &e) } else { e });
+                if grad {
+                    // d/dx = (1/a) d/dt.
+                    let dc: Vec<Q> = (1..c.len()).map(|e| c[e].clone() * Q::int(e as i64) / Q::int(a.step)).collect();
+                    let de = poly_expr(&dc, &pows);
+                    dwi.push(if de.contains(' ') || de.contains('*') { body.bind("dwt", &de) } else { de });
+                }
+            }
+            w.push(wi);
+            dw.push(dwi);
+        }
+        // Fetches in odometer order (axis 0 fastest).
+        let samples: Vec<String> = odometer(&orders)
+            .iter()
+            .map(|k| {
+                let off: Vec<i64> = (0..s).map(|i| -steps[i] * k[i] as i64).collect();
+                let j = if off.iter().all(|&x| x == 0) { jb.clone() } else { format!("{jb} + {}", sh.ivec(&off)) };
+                body.bind("f", &format!("{name}_fetch({j})"))
+            })
+            .collect();
+        // Contract axis by axis.
+        let mut tensors = vec![Tensor { deriv: None, entries: samples }];
+        for i in 0..s {
+            let n = orders[i];
+            let mut next = Vec::new();
+            for tz in &tensors {
+                let mut variants: Vec<(Option<usize>, &Vec<String>)> = vec![(tz.deriv, &w[i])];
+                if grad && tz.deriv.is_none() {
+                    variants.push((Some(i), &dw[i]));
+                }
+                for (deriv, ws) in variants {
+                    let entries: Vec<String> = tz
+                        .entries
+                        .chunks(n)
+                        .map(|xs| {
+                            let e = dot(ws, xs);
+                            if e.contains(' ') {
+                                body.bind("c", &e)
+                            } else {
+                                e
+                            }
+                        })
+                        .collect();
+                    next.push(Tensor { deriv, entries });
+                }
+            }
+            tensors = next;
+        }
+        let value = tensors.iter().find(|t| t.deriv.is_none()).map(|t| t.entries[0].clone()).unwrap();
+        coset_values.push(value);
+        if grad {
+            coset_grads.push(
+                (0..s)
+                    .map(|i| tensors.iter().find(|t| t.deriv == Some(i)).map(|t| t.entries[0].clone()).unwrap())
+                    .collect(),
+            );
+        }
+    }
+    let value = coset_values.join(" + ");
+    if !grad {
+        body.line(&format!("return {value};"));
+        return body.text;
+    }
+    let g: Vec<String> =
+        (0..s).map(|i| coset_grads.iter().map(|g| g[i].clone()).collect::<Vec<_>>().join(" + ")).collect();
+    body.line(&format!("return vec{}<f32>({value}, {});", s + 1, g.join(", ")));
+    body.text
+}
+
+/// Bernstein coefficients over [0, 1] of sum_e c_e t^e (degree `deg`).
+fn bernstein(coeffs: &[Q], deg: usize) -> Vec<Q> {
+    use crate::math::exact::binomial;
+    (0..=deg)
+        .map(|j| {
+            (0..=j.min(coeffs.len().saturating_sub(1)))
+                .map(|e| coeffs[e].clone() * binomial(j as u32, e as u32) / binomial(deg as u32, e as u32))
+                .sum()
+        })
+        .collect()
+}
+
+/// `<f>_cube_bounds` for a tensor-product filter: on the unit cube [z, z+1]
+/// each coset's part is one tensor polynomial piece per axis; its tensor
+/// Bernstein coefficients over the whole piece (a contraction of the samples
+/// with the 1D Bernstein coefficients of the weights) bound it, and the sum
+/// of the per-coset bounds bounds the spline.
+pub(crate) fn emit_factored_bounds(fac: &Factorisation, sh: &Shapes, name: &str) -> String {
+    use std::collections::BTreeMap;
+    let s = sh.s;
+    let mut body = Body::new();
+    let orders: Vec<usize> = fac.axes.iter().map(|a| a.order).collect();
+    let p = body.bind("p", &format!("{}(z) + 0.5", sh.vecf));
+    let (mut lo, mut hi) = (Vec::new(), Vec::new());
+    for v in &fac.cosets {
+        let steps: Vec<i64> = fac.axes.iter().map(|a| a.step).collect();
+        let add: Vec<Q> =
+            (0..s).map(|i| Q::frac(fac.axes[i].order as i64, 2) - Q::frac(v[i], fac.axes[i].step)).collect();
+        let mul: Vec<String> = steps.iter().map(|&a| lit(&Q::frac(1, a))).collect();
+        let sv =
+            body.bind("s", &format!("{p} * {} + {}", sh.fvec(&mul), sh.fvec(&add.iter().map(lit).collect::<Vec<_>>())));
+        let jb = body.bind("jb", &format!("{}(floor({sv})) * {} + {}", sh.veci, sh.ivec(&steps), sh.ivec(v)));
+        let mut entries: BTreeMap<Vec<usize>, String> = BTreeMap::new();
+        for k in odometer(&orders) {
+            let off: Vec<i64> = (0..s).map(|i| -steps[i] * k[i] as i64).collect();
+            let f = body.bind("f", &format!("{name}_fetch({jb} + {})", sh.ivec(&off)));
+            entries.insert(k, f);
+        }
+        for (i, a) in fac.axes.iter().enumerate() {
+            let scale = if i == s - 1 { fac.scale.clone() } else { Q::one() };
+            // b[k][o]: Bernstein coefficient o of the weight of sample k.
+            let b: Vec<Vec<Q>> = a
+                .pieces
+                .iter()
+                .map(|pc| bernstein(&pc.iter().map(|c| c.clone() * &scale).collect::<Vec<_>>(), a.order - 1))
+                .collect();
+            let mut next: BTreeMap<Vec<usize>, String> = BTreeMap::new();
+            let mut groups: BTreeMap<Vec<usize>, Vec<String>> = BTreeMap::new();
+            for (idx, name) in &entries {
+                let mut key = idx.clone();
+                key[i] = 0;
+                groups.entry(key).or_default().push(name.clone());
+            }
+            for (key, xs) in groups {
+                for o in 0..a.order {
+                    let terms: Vec<(Q, String)> = (0..a.order).map(|k| (b[k][o].clone(), xs[k].clone())).collect();
+                    let e = super::writer::linear_combination(&terms);
+                    let mut idx = key.clone();
+                    idx[i] = o;
+                    next.insert(idx, if e.contains(' ') { body.bind("bc", &e) } else { e });
+                }
+            }
+            entries = next;
+        }
+        let vals: Vec<&String> = entries.values().collect();
+        let mn = vals.iter().skip(1).fold(vals[0].to_string(), |acc, b| format!("min({acc}, {b})"));
+        let mx = vals.iter().skip(1).fold(vals[0].to_string(), |acc, b| format!("max({acc}, {b})"));
+        lo.push(body.bind("lo", &mn));
+        hi.push(body.bind("hi", &mx));
+    }
+    body.line(&format!("return vec2<f32>({}, {});", lo.join(" + "), hi.join(" + ")));
+    format!(
+        "/// Bounds (min, max) of the spline over the unit cube [z, z+1]: per coset,\n/// the tensor Bernstein coefficients of its piece bound it.\nfn {name}_cube_bounds(z: {}) -> vec2<f32> {{\n{}}}\n",
+        sh.veci, body.text
+    )
+}
