@@ -242,13 +242,7 @@ impl Job {
     /// Compiles `source` (which has `bench_main`) over the points. A source
     /// declaring `ref_linear` gets a linear clamp-to-edge sampler in group 1
     /// and the volume bound as a filterable texture.
-    pub fn new(
-        gpu: &Gpu,
-        source: &str,
-        label: &str,
-        dv: &DeviceVolume,
-        points: &[[f32; 4]],
-    ) -> Result<Job, GpuError> {
+    pub fn new(gpu: &Gpu, source: &str, label: &str, dv: &DeviceVolume, points: &[[f32; 4]]) -> Result<Job, GpuError> {
         let sampled = references::uses_sampler(source);
         if sampled && !can_filter_f32(gpu) {
             return Err(GpuError::Runtime(format!(
@@ -549,8 +543,8 @@ pub fn run(gpu: &Gpu, o: &BenchOptions, progress: &dyn Fn(&str)) -> Result<Bench
         let mpts = points_in(&d, &ml, o.points, 5);
         let m = emit(&d, &EmitOptions { kernels: false, ..Default::default() }).map_err(|x| x.to_string())?;
         progress(&format!("{name} analytic vs central-difference gradient"));
-        let a = Job::new(gpu, &program(&m.source, "", &format!("{name}_eval_grad(p)")), "grad", &dv, &mpts)
-            .map_err(e)?;
+        let a =
+            Job::new(gpu, &program(&m.source, "", &format!("{name}_eval_grad(p)")), "grad", &dv, &mpts).map_err(e)?;
         let c = Job::new(gpu, &program(&m.source, "", &central_call(name)), "central", &dv, &mpts).map_err(e)?;
         let r = timed_rounds(gpu, &[&a, &c], rounds).map_err(e)?;
         let speed = Ratio::of_rates(&r[0], &r[1]);
@@ -590,9 +584,7 @@ pub fn run(gpu: &Gpu, o: &BenchOptions, progress: &dyn Fn(&str)) -> Result<Bench
     }
     // bcc7 against bcc8.
     for kind in ["eval", "eval_grad"] {
-        if let (Some(a), Some(b)) =
-            (kept.get(&(pair.0.to_string(), kind)), kept.get(&(pair.1.to_string(), kind)))
-        {
+        if let (Some(a), Some(b)) = (kept.get(&(pair.0.to_string(), kind)), kept.get(&(pair.1.to_string(), kind))) {
             progress(&format!("{} vs {} {kind}, {rounds} rounds", pair.0, pair.1));
             let r = timed_rounds(gpu, &[a, b], rounds).map_err(e)?;
             let ratio = Ratio::of_rates(&r[0], &r[1]);
@@ -688,10 +680,7 @@ pub fn run(gpu: &Gpu, o: &BenchOptions, progress: &dyn Fn(&str)) -> Result<Bench
 }
 
 /// Render frames with and without skipping in interleaved rounds: (skip ms, no-skip ms) per round.
-fn render_rounds(
-    rounds: usize,
-    mut frame: impl FnMut(bool) -> Result<f64, String>,
-) -> Result<Vec<(f64, f64)>, String> {
+fn render_rounds(rounds: usize, mut frame: impl FnMut(bool) -> Result<f64, String>) -> Result<Vec<(f64, f64)>, String> {
     let mut out = Vec::new();
     for r in 0..rounds.max(1) {
         let mut t = [0.0; 2];
@@ -751,8 +740,8 @@ pub fn compare_reference(gpu: &Gpu, r: &Reference, points: usize, rounds: usize)
     let (lo, hi) = vol.data.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &x| (a.min(x), b.max(x)));
     let data_range = (hi - lo).max(f32::MIN_POSITIVE) as f64;
     let m = emit(&d, &EmitOptions { kernels: false, ..Default::default() }).map_err(|x| x.to_string())?;
-    let reference_ops = references::ops(&r.source);
     let module_with_ref = format!("{}\n{}", m.source, r.source);
+    let reference_ops = references::ops(&module_with_ref, &r.source, &r.entry);
     let mut row = ReferenceRow {
         filter: name.clone(),
         generated: format!("{name}_eval"),
@@ -959,7 +948,7 @@ pub fn markdown(r: &BenchReport, command: &str) -> String {
     );
     let _ = writeln!(
         s,
-        "## Generated vs hand-written\n\nThe generated `<filter>_eval` beside hand-written shaders (runtime/references/, embedded in the binary; each cites its source), on the same random points of a random {}-ish volume, after checking max |generated - reference| < {:.0e} of the data range on those points (a comparison that fails the check is marked INVALID and not timed). Ratio: generated ÷ reference evals/s (above 1: the generated code is faster). Ops: `boxforge::emit::count_ops` on the generated eval body and on all of the reference's code; fetches: texel loads over the call tree (naga) plus filtered fetches.\n",
+        "## Generated vs hand-written\n\nThe generated `<filter>_eval` beside hand-written shaders (runtime/references/, embedded in the binary; each cites its source), on the same random points of a random {}-ish volume, after checking max |generated - reference| < {:.0e} of the data range on those points (a comparison that fails the check is marked INVALID and not timed). Ratio: generated ÷ reference evals/s (above 1: the generated code is faster). Ops: `boxforge::emit::count_ops` on the generated eval body; on the reference, the same count over its entry function and, per call site, its own helpers (a vec4 `dot` counts 7), calls to `<filter>_fetch` excluded on both sides; fetches: texel loads over the call tree (naga) plus filtered fetches.\n",
         "64^3", REFERENCE_TOLERANCE
     );
     let _ = writeln!(s, "| filter | reference | fetches (gen / ref) | ops (gen / ref) | generated evals/s | reference evals/s | ratio median [min..max] | tie? | max \\|diff\\| (of range) | source |\n|---|---|---|---|---|---|---|---|---|---|");
@@ -1047,7 +1036,13 @@ pub fn markdown(r: &BenchReport, command: &str) -> String {
         let _ = writeln!(
             s,
             "| {} | {:.3e} | {:.3e} | {} | {} | {:.3} | {:.3} |",
-            g.filter, g.analytic_evals_per_s, g.central_evals_per_s, ratio, tie, g.analytic_angle_deg, g.central_angle_deg
+            g.filter,
+            g.analytic_evals_per_s,
+            g.central_evals_per_s,
+            ratio,
+            tie,
+            g.analytic_angle_deg,
+            g.central_angle_deg
         );
     }
     let _ = writeln!(s, "\n## Quality against the analytic Marschner-Lobb function\n\n| filter | lattice | budget | samples | prefiltered | RMS error | max error | gradient angle error (°) |\n|---|---|---|---|---|---|---|---|");

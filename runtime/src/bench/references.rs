@@ -65,11 +65,64 @@ pub fn code_only(source: &str) -> String {
     source.lines().filter(|l| !l.trim_start().starts_with("//")).collect::<Vec<_>>().join("\n")
 }
 
-/// Static arithmetic ops of the reference: `boxforge::emit::count_ops` over
-/// all its code (its helper functions included; the generated side counts
-/// its eval body, both excluding `<f>_fetch`).
-pub fn ops(source: &str) -> usize {
-    boxforge::emit::count_ops(&code_only(source))
+/// The body (between the outer braces) of every `fn` in the source, by name.
+pub fn function_bodies(source: &str) -> std::collections::HashMap<String, String> {
+    let code = code_only(source);
+    let mut out = std::collections::HashMap::new();
+    let mut rest = code.as_str();
+    while let Some(at) = rest.find("fn ") {
+        let after = &rest[at + 3..];
+        let name: String = after.chars().take_while(|c| c.is_alphanumeric() || *c == '_').collect();
+        let Some(open) = after.find('{') else { break };
+        let mut depth = 0usize;
+        let mut end = after.len();
+        for (i, ch) in after[open..].char_indices() {
+            match ch {
+                '{' => depth += 1,
+                '}' => {
+                    depth -= 1;
+                    if depth == 0 {
+                        end = open + i;
+                        break;
+                    }
+                }
+                _ => {}
+            }
+        }
+        out.insert(name, after[open + 1..end].to_string());
+        rest = &after[end.min(after.len())..];
+    }
+    out
+}
+
+/// Ops of one body: `boxforge::emit::count_ops`, plus 7 per `dot(` (a vec4
+/// dot product: 4 multiplies and 3 adds, which count_ops does not see).
+fn body_ops(body: &str) -> usize {
+    boxforge::emit::count_ops(body) + 7 * body.matches("dot(").count()
+}
+
+/// Arithmetic ops per evaluation of the reference `entry`: its body's ops plus,
+/// per call site (naga's call tree), the ops of the reference's own helper
+/// functions it calls (calls into the generated module, such as
+/// `<f>_fetch`, count nothing: the generated side's count excludes them too).
+pub fn ops(module_source: &str, reference_source: &str, entry: &str) -> usize {
+    let bodies = function_bodies(reference_source);
+    let report = boxforge::validate::validate_wgsl(module_source, entry);
+    fn walk(
+        name: &str,
+        bodies: &std::collections::HashMap<String, String>,
+        report: &boxforge::validate::ValidationReport,
+        depth: usize,
+    ) -> usize {
+        let Some(body) = bodies.get(name) else { return 0 };
+        let own = body_ops(body);
+        if depth > 16 {
+            return own;
+        }
+        let calls = report.function(name).map(|f| f.calls.clone()).unwrap_or_default();
+        own + calls.iter().map(|c| walk(c, bodies, report, depth + 1)).sum::<usize>()
+    }
+    walk(entry, &bodies, &report, 0)
 }
 
 /// Fetches per evaluation: texel loads over the call tree of `entry` (naga),
