@@ -66,6 +66,11 @@ impl Gpu {
         if timestamps {
             features |= wgpu::Features::TIMESTAMP_QUERY;
         }
+        // Hardware-filtered R32Float fetches (bench's Sigg & Hadwiger
+        // reference); requested only when the adapter has it.
+        if adapter.features().contains(wgpu::Features::FLOAT32_FILTERABLE) {
+            features |= wgpu::Features::FLOAT32_FILTERABLE;
+        }
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("boxforge"),
             required_features: features,

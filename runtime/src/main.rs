@@ -162,6 +162,12 @@ enum Command {
         /// Skip the quality section.
         #[arg(long)]
         no_quality: bool,
+        /// Skip the hand-written references (generated vs hand-written).
+        #[arg(long)]
+        no_references: bool,
+        /// Interleaved timing rounds per comparison (default: 7, or 3 with --smoke).
+        #[arg(long)]
+        runs: Option<usize>,
         #[arg(long)]
         json: bool,
         /// Write the report as Markdown (e.g. docs/BENCHMARKS.md).
@@ -277,7 +283,20 @@ fn run(cli: Cli) -> Result<(), Failure> {
             );
             Ok(())
         }
-        Command::Bench { filters, smoke, no_naive, no_quality, json, markdown, wgsl, entry, like, adapter } => {
+        Command::Bench {
+            filters,
+            smoke,
+            no_naive,
+            no_quality,
+            no_references,
+            runs,
+            json,
+            markdown,
+            wgsl,
+            entry,
+            like,
+            adapter,
+        } => {
             use boxforge_runtime::bench;
             let mut o = if smoke { bench::BenchOptions::smoke() } else { bench::BenchOptions::full() };
             if !filters.is_empty() {
@@ -285,6 +304,12 @@ fn run(cli: Cli) -> Result<(), Failure> {
             }
             o.naive &= !no_naive;
             o.quality &= !no_quality;
+            // The CLI's smoke run includes the references (the library's
+            // smoke options, used by the CI test, leave them to bench_refs).
+            o.references = (o.references || smoke) && !no_references;
+            if let Some(r) = runs {
+                o.runs = r.max(1);
+            }
             if let (Some(w), Some(e), Some(l)) = (wgsl, entry, like) {
                 o.external = Some(bench::External { wgsl: w, entry: e, like: l });
             }
@@ -296,6 +321,9 @@ fn run(cli: Cli) -> Result<(), Failure> {
             let mut cmd = String::from("boxforge bench");
             if smoke {
                 cmd.push_str(" --smoke");
+            }
+            if let Some(r) = runs {
+                cmd.push_str(&format!(" --runs {r}"));
             }
             if let Some(m) = &markdown {
                 cmd.push_str(&format!(" --markdown {}", m.display()));
