@@ -186,79 +186,56 @@ pub(crate) fn emit_factored_body(fac: &Factorisation, sh: &Shapes, name: &str, g
     body.text
 }
 
-/// Bernstein coefficients over [0, 1] of sum_e c_e t^e (degree `deg`).
-fn bernstein(coeffs: &[Q], deg: usize) -> Vec<Q> {
-    use crate::math::exact::binomial;
-    (0..=deg)
-        .map(|j| {
-            (0..=j.min(coeffs.len().saturating_sub(1)))
-                .map(|e| coeffs[e].clone() * binomial(j as u32, e as u32) / binomial(deg as u32, e as u32))
-                .sum()
-        })
-        .collect()
-}
-
 /// `<f>_cube_bounds` for a tensor-product filter: on the unit cube [z, z+1]
-/// each coset's part is one tensor polynomial piece per axis; its tensor
-/// Bernstein coefficients over the whole piece (a contraction of the samples
-/// with the 1D Bernstein coefficients of the weights) bound it, and the sum
-/// of the per-coset bounds bounds the spline.
+/// each coset's part is one tensor polynomial piece per axis, a combination
+/// of the samples it fetches with non-negative weights that add up to one
+/// over all cosets (box splines are non-negative; partition of unity). So
+/// the spline on the cube lies between the least and the greatest of those
+/// samples. This helper only serves the min/max kernel, not the evaluation
+/// path, so it loops over the samples (scalar accumulators, no arrays) to
+/// keep the module small.
 pub(crate) fn emit_factored_bounds(fac: &Factorisation, sh: &Shapes, name: &str) -> String {
-    use std::collections::BTreeMap;
+    use std::fmt::Write;
     let s = sh.s;
-    let mut body = Body::new();
     let orders: Vec<usize> = fac.axes.iter().map(|a| a.order).collect();
-    let p = body.bind("p", &format!("{}(z) + 0.5", sh.vecf));
-    let (mut lo, mut hi) = (Vec::new(), Vec::new());
+    let total: usize = orders.iter().product();
+    let strides: Vec<usize> = (0..s).map(|i| orders[..i].iter().product()).collect();
+    let steps: Vec<i64> = fac.axes.iter().map(|a| a.step).collect();
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "/// Bounds (min, max) of the spline over the unit cube [z, z+1]: the range of\n/// the samples with non-zero weight there (non-negative weights summing to one).\nfn {name}_cube_bounds(z: {}) -> vec2<f32> {{",
+        sh.veci
+    );
+    let _ = writeln!(out, "    let p = {}(z) + 0.5;", sh.vecf);
+    let _ = writeln!(out, "    var lo = 3.4e38;\n    var hi = -3.4e38;");
+    let digit = |var: &str, i: usize| format!("(({var} / {}) % {})", strides[i], orders[i]);
     for v in &fac.cosets {
-        let steps: Vec<i64> = fac.axes.iter().map(|a| a.step).collect();
-        let add: Vec<Q> =
-            (0..s).map(|i| Q::frac(fac.axes[i].order as i64, 2) - Q::frac(v[i], fac.axes[i].step)).collect();
+        let add: Vec<Q> = (0..s).map(|i| Q::frac(orders[i] as i64, 2) - Q::frac(v[i], steps[i])).collect();
         let mul: Vec<String> = steps.iter().map(|&a| lit(&Q::frac(1, a))).collect();
-        let sv =
-            body.bind("s", &format!("{p} * {} + {}", sh.fvec(&mul), sh.fvec(&add.iter().map(lit).collect::<Vec<_>>())));
-        let jb = body.bind("jb", &format!("{}(floor({sv})) * {} + {}", sh.veci, sh.ivec(&steps), sh.ivec(v)));
-        let mut entries: BTreeMap<Vec<usize>, String> = BTreeMap::new();
-        for k in odometer(&orders) {
-            let off: Vec<i64> = (0..s).map(|i| -steps[i] * k[i] as i64).collect();
-            let f = body.bind("f", &format!("{name}_fetch({jb} + {})", sh.ivec(&off)));
-            entries.insert(k, f);
-        }
-        for (i, a) in fac.axes.iter().enumerate() {
-            let scale = if i == s - 1 { fac.scale.clone() } else { Q::one() };
-            // b[k][o]: Bernstein coefficient o of the weight of sample k.
-            let b: Vec<Vec<Q>> = a
-                .pieces
-                .iter()
-                .map(|pc| bernstein(&pc.iter().map(|c| c.clone() * &scale).collect::<Vec<_>>(), a.order - 1))
-                .collect();
-            let mut next: BTreeMap<Vec<usize>, String> = BTreeMap::new();
-            let mut groups: BTreeMap<Vec<usize>, Vec<String>> = BTreeMap::new();
-            for (idx, name) in &entries {
-                let mut key = idx.clone();
-                key[i] = 0;
-                groups.entry(key).or_default().push(name.clone());
-            }
-            for (key, xs) in groups {
-                for o in 0..a.order {
-                    let terms: Vec<(Q, String)> = (0..a.order).map(|k| (b[k][o].clone(), xs[k].clone())).collect();
-                    let e = super::writer::linear_combination(&terms);
-                    let mut idx = key.clone();
-                    idx[i] = o;
-                    next.insert(idx, if e.contains(' ') { body.bind("bc", &e) } else { e });
-                }
-            }
-            entries = next;
-        }
-        let vals: Vec<&String> = entries.values().collect();
-        let mn = vals.iter().skip(1).fold(vals[0].to_string(), |acc, b| format!("min({acc}, {b})"));
-        let mx = vals.iter().skip(1).fold(vals[0].to_string(), |acc, b| format!("max({acc}, {b})"));
-        lo.push(body.bind("lo", &mn));
-        hi.push(body.bind("hi", &mx));
+        let _ = writeln!(out, "    {{");
+        let _ = writeln!(
+            out,
+            "        let jb = {}(floor(p * {} + {})) * {} + {};",
+            sh.veci,
+            sh.fvec(&mul),
+            sh.fvec(&add.iter().map(lit).collect::<Vec<_>>()),
+            sh.ivec(&steps),
+            sh.ivec(v)
+        );
+        let kk: Vec<String> = (0..s).map(|i| digit("k", i)).collect();
+        let _ = writeln!(out, "        for (var k = 0; k < {total}; k++) {{");
+        let _ = writeln!(
+            out,
+            "            let c = {name}_fetch(jb - {}({}) * {});",
+            sh.veci,
+            kk.join(", "),
+            sh.ivec(&steps)
+        );
+        let _ = writeln!(out, "            lo = min(lo, c);\n            hi = max(hi, c);");
+        let _ = writeln!(out, "        }}");
+        let _ = writeln!(out, "    }}");
     }
-    body.line(&format!("return vec2<f32>({}, {});", lo.join(" + "), hi.join(" + ")));
-    format!(
-        "/// Bounds (min, max) of the spline over the unit cube [z, z+1]: per coset,\n/// the tensor Bernstein coefficients of its piece bound it.\nfn {name}_cube_bounds(z: {}) -> vec2<f32> {{\n{}}}\n",
-        sh.veci, body.text
-    )
+    let _ = writeln!(out, "    return vec2<f32>(lo, hi);\n}}");
+    out
 }
