@@ -7,6 +7,7 @@ use crate::upload::{storage_entry, uniform_entry, DeviceVolume};
 use crate::volume::LatticeVolume;
 use boxforge::derive::Derivation;
 use boxforge::emit::{emit, EmitOptions, Layout};
+use glam::{DVec3, Vec3};
 use std::time::Instant;
 
 #[derive(Clone, Debug)]
@@ -74,50 +75,50 @@ pub struct Frame {
     pub empty_blocks: f64,
 }
 
-fn sub(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+/// The uniform layout of a direction or position: xyz and a zero w.
+fn v4(a: Vec3) -> [f32; 4] {
+    a.extend(0.0).to_array()
 }
-fn cross(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
-    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+
+/// The xyz of a uniform vector, widened to f64 (exactly).
+fn d3(a: [f32; 4]) -> DVec3 {
+    Vec3::from_slice(&a[..3]).as_dvec3()
 }
-fn norm(a: [f32; 3]) -> [f32; 3] {
-    let l = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt().max(1e-20);
-    [a[0] / l, a[1] / l, a[2] / l]
-}
-fn scale(a: [f32; 3], s: f32) -> [f32; 3] {
-    [a[0] * s, a[1] * s, a[2] * s]
-}
-fn v4(a: [f32; 3]) -> [f32; 4] {
-    [a[0], a[1], a[2], 0.0]
+
+/// [`valid_box`] as glam vectors.
+fn valid_box_vec(d: &Derivation, vol: &LatticeVolume) -> (Vec3, Vec3) {
+    let r = crate::verify::support_radius(d) as f32;
+    let dims = Vec3::new(vol.dims[0] as f32, vol.dims[1] as f32, vol.dims[2] as f32);
+    (Vec3::splat(r), dims - 1.0 - r)
 }
 
 /// The box where the whole support of every sample used lies in the volume.
 pub fn valid_box(d: &Derivation, vol: &LatticeVolume) -> ([f32; 3], [f32; 3]) {
-    let r = crate::verify::support_radius(d) as f32;
-    let lo = [r; 3];
-    let hi = [vol.dims[0] as f32 - 1.0 - r, vol.dims[1] as f32 - 1.0 - r, vol.dims[2] as f32 - 1.0 - r];
-    (lo, hi)
+    let (lo, hi) = valid_box_vec(d, vol);
+    (lo.to_array(), hi.to_array())
 }
 
 pub fn ray_params(d: &Derivation, vol: &LatticeVolume, o: &RenderOptions) -> RayParams {
-    let (lo, hi) = valid_box(d, vol);
-    let center = scale([lo[0] + hi[0], lo[1] + hi[1], lo[2] + hi[2]], 0.5);
-    let radius = 0.5 * {
-        let e = sub(hi, lo);
-        (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt()
-    };
+    let (lo, hi) = valid_box_vec(d, vol);
+    let center = (lo + hi) * 0.5;
+    let radius = 0.5 * (hi - lo).length();
     let (az, el) = (o.azimuth.to_radians(), o.elevation.to_radians());
-    let toward_eye = [el.cos() * az.cos(), el.cos() * az.sin(), el.sin()];
-    let forward = scale(toward_eye, -1.0);
-    let world_up = if el.cos().abs() < 1e-3 { [0.0, 1.0, 0.0] } else { [0.0, 0.0, 1.0] };
-    let right = norm(cross(forward, world_up));
-    let up = cross(right, forward);
+    let toward_eye = Vec3::new(el.cos() * az.cos(), el.cos() * az.sin(), el.sin());
+    let forward = -toward_eye;
+    let world_up = if el.cos().abs() < 1e-3 { Vec3::Y } else { Vec3::Z };
+    // Divide by the (guarded) length rather than glam's normalize, which
+    // multiplies by its reciprocal and rounds differently.
+    let right = {
+        let c = forward.cross(world_up);
+        c / c.length().max(1e-20)
+    };
+    let up = right.cross(forward);
     let aspect = o.width as f32 / o.height as f32;
     let (eye, half) = if o.perspective {
         let dist = radius * 2.6;
-        (sub(center, scale(forward, dist)), (22.5f32).to_radians().tan())
+        (center - forward * dist, (22.5f32).to_radians().tan())
     } else {
-        (sub(center, scale(forward, radius * 2.0)), radius * 1.05)
+        (center - forward * (radius * 2.0), radius * 1.05)
     };
     let blocks = [
         (vol.dims[0] as i32 + o.block - 1) / o.block,
@@ -128,8 +129,8 @@ pub fn ray_params(d: &Derivation, vol: &LatticeVolume, o: &RenderOptions) -> Ray
     RayParams {
         eye: v4(eye),
         forward: v4(forward),
-        right: v4(scale(right, half * aspect)),
-        up: v4(scale(up, half)),
+        right: v4(right * (half * aspect)),
+        up: v4(up * half),
         box_lo: v4(lo),
         box_hi: v4(hi),
         shade: [o.iso, o.step, o.perspective as i32 as f32, o.skip as i32 as f32],
@@ -253,12 +254,11 @@ pub fn render(
 pub fn cpu_render(d: &Derivation, vol: &LatticeVolume, o: &RenderOptions) -> Vec<u8> {
     let p = ray_params(d, vol, o);
     let data = |j: &[i64]| vol.get(j) as f64;
-    let f = |x: [f64; 3]| d.eval_f64(&x, &data);
+    let f = |x: DVec3| d.eval_f64(&x.to_array(), &data);
     let (w, h) = (o.width as usize, o.height as usize);
     let rows: Vec<usize> = (0..h).collect();
     let threads = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
     let chunks: Vec<Vec<usize>> = rows.chunks(h.div_ceil(threads)).map(|c| c.to_vec()).collect();
-    let g3 = |a: [f32; 4]| [a[0] as f64, a[1] as f64, a[2] as f64];
     let mut out = vec![0u8; w * h * 4];
     std::thread::scope(|s| {
         let handles: Vec<_> = chunks
@@ -271,24 +271,12 @@ pub fn cpu_render(d: &Derivation, vol: &LatticeVolume, o: &RenderOptions) -> Vec
                         for x in 0..w {
                             let sx = (x as f64 + 0.5) / w as f64 * 2.0 - 1.0;
                             let sy = 1.0 - (y as f64 + 0.5) / h as f64 * 2.0;
-                            let (eye, fw, rt, up) = (g3(p.eye), g3(p.forward), g3(p.right), g3(p.up));
+                            let (eye, fw, rt, up) = (d3(p.eye), d3(p.forward), d3(p.right), d3(p.up));
                             let (origin, dir) = if o.perspective {
-                                let dv = [
-                                    fw[0] + sx * rt[0] + sy * up[0],
-                                    fw[1] + sx * rt[1] + sy * up[1],
-                                    fw[2] + sx * rt[2] + sy * up[2],
-                                ];
-                                let l = (dv[0] * dv[0] + dv[1] * dv[1] + dv[2] * dv[2]).sqrt();
-                                (eye, [dv[0] / l, dv[1] / l, dv[2] / l])
+                                let dv = fw + sx * rt + sy * up;
+                                (eye, dv / dv.length())
                             } else {
-                                (
-                                    [
-                                        eye[0] + sx * rt[0] + sy * up[0],
-                                        eye[1] + sx * rt[1] + sy * up[1],
-                                        eye[2] + sx * rt[2] + sy * up[2],
-                                    ],
-                                    fw,
-                                )
+                                (eye + sx * rt + sy * up, fw)
                             };
                             let c = cast_ray(f, origin, dir, &p, o);
                             part.push((y, x, c));
@@ -309,13 +297,13 @@ pub fn cpu_render(d: &Derivation, vol: &LatticeVolume, o: &RenderOptions) -> Vec
 }
 
 fn cast_ray(
-    f: &dyn Fn([f64; 3]) -> (f64, Vec<f64>),
-    origin: [f64; 3],
-    dir: [f64; 3],
+    f: &dyn Fn(DVec3) -> (f64, Vec<f64>),
+    origin: DVec3,
+    dir: DVec3,
     p: &RayParams,
     o: &RenderOptions,
 ) -> [u8; 4] {
-    let at = |t: f64| [origin[0] + t * dir[0], origin[1] + t * dir[1], origin[2] + t * dir[2]];
+    let at = |t: f64| origin + t * dir;
     let (mut t0, mut t1) = (0f64, f64::INFINITY);
     for i in 0..3 {
         let a = (p.box_lo[i] as f64 - origin[i]) / dir[i];
@@ -323,7 +311,7 @@ fn cast_ray(
         t0 = t0.max(a.min(b));
         t1 = t1.min(a.max(b));
     }
-    let mut color = [0.08f64, 0.08, 0.1];
+    let mut color = DVec3::new(0.08, 0.08, 0.1);
     if t0 < t1 {
         let iso = o.iso as f64;
         let step = o.step as f64;
@@ -350,28 +338,26 @@ fn cast_ray(
                     b = m;
                 }
             }
-            let g = f(at(0.5 * (a + b))).1;
-            let gl = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt().max(1e-20);
-            let mut n = [g[0] / gl, g[1] / gl, g[2] / gl];
-            if n[0] * dir[0] + n[1] * dir[1] + n[2] * dir[2] > 0.0 {
-                n = [-n[0], -n[1], -n[2]];
+            // Normalised by dividing by the length (not glam's normalize,
+            // which multiplies by the reciprocal) to keep the rounding.
+            let g = DVec3::from_slice(&f(at(0.5 * (a + b))).1);
+            let mut n = g / g.length().max(1e-20);
+            if n.dot(dir) > 0.0 {
+                n = -n;
             }
-            let up = [p.up[0] as f64, p.up[1] as f64, p.up[2] as f64];
-            let ul = (up[0] * up[0] + up[1] * up[1] + up[2] * up[2]).sqrt().max(1e-20);
+            let up = d3(p.up);
+            let ul = up.length().max(1e-20);
             let l = {
-                let v = [-dir[0] + 0.35 * up[0] / ul, -dir[1] + 0.35 * up[1] / ul, -dir[2] + 0.35 * up[2] / ul];
-                let k = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-                [v[0] / k, v[1] / k, v[2] / k]
+                let v = -dir + 0.35 * up / ul;
+                v / v.length()
             };
             let hv = {
-                let v = [l[0] - dir[0], l[1] - dir[1], l[2] - dir[2]];
-                let k = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-                [v[0] / k, v[1] / k, v[2] / k]
+                let v = l - dir;
+                v / v.length()
             };
-            let diffuse = (n[0] * l[0] + n[1] * l[1] + n[2] * l[2]).max(0.0);
-            let specular = (n[0] * hv[0] + n[1] * hv[1] + n[2] * hv[2]).max(0.0).powf(40.0);
-            let base = [0.85, 0.72, 0.55];
-            color = [0, 1, 2].map(|i| base[i] * (0.15 + 0.75 * diffuse) + 0.3 * specular);
+            let diffuse = n.dot(l).max(0.0);
+            let specular = n.dot(hv).max(0.0).powf(40.0);
+            color = DVec3::new(0.85, 0.72, 0.55) * (0.15 + 0.75 * diffuse) + 0.3 * specular;
         }
     }
     let q = |v: f64| (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8;

@@ -1,0 +1,123 @@
+//! CPU-side volume handling: the Cartesian [`Volume`] and lattice
+//! [`LatticeVolume`] types, their accessors and the re-exports of the rest,
+//! which lives beside them one concern per file: `error.rs` (the error type
+//! and shared input checks), `nifti.rs` and `raw.rs` (file formats),
+//! `synthetic.rs` (the Marschner-Lobb test signal), `convert.rs` (lattice
+//! (cc/bcc/fcc) sample sets from Cartesian volumes) and `packing.rs` (the
+//! coset-packed storage layout) (BOX_SPLINES.md §1, §5).
+//!
+//! Nothing here panics on bad input: files, specs and hand-built structs with
+//! inconsistent fields all come back as [`VolumeError`]s (or, for the
+//! infallible accessors, as documented neutral values).
+
+use boxforge::spec::lattice::Lattice;
+
+mod convert;
+mod error;
+mod nifti;
+mod packing;
+mod raw;
+mod synthetic;
+#[cfg(test)]
+mod testutil;
+
+pub use error::VolumeError;
+pub use raw::{parse_raw_spec, RawType};
+pub use synthetic::{marschner_lobb, marschner_lobb_grad, ml_position};
+
+use error::checked_count;
+
+/// A scalar volume on a Cartesian grid, x fastest: value(i,j,k) = data[i + nx*(j + ny*k)].
+#[derive(Clone, Debug, PartialEq)]
+pub struct Volume {
+    /// Samples per axis (nx, ny, nz).
+    pub dims: [usize; 3],
+    /// The samples, x fastest.
+    pub data: Vec<f32>,
+}
+
+impl Volume {
+    /// A volume from dims and x-fastest data; errors on zero dims or a length mismatch.
+    pub fn new(dims: [usize; 3], data: Vec<f32>) -> Result<Volume, VolumeError> {
+        let expected = checked_count(dims)?;
+        if data.len() != expected {
+            return Err(VolumeError::DataLength { dims, len: data.len(), expected });
+        }
+        Ok(Volume { dims, data })
+    }
+
+    /// (min, max) of the samples; (0, 0) for an empty volume. NaNs are ignored.
+    pub fn range(&self) -> (f32, f32) {
+        let (lo, hi) = self
+            .data
+            .iter()
+            .filter(|v| !v.is_nan())
+            .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &v| (lo.min(v), hi.max(v)));
+        if lo > hi {
+            (0.0, 0.0)
+        } else {
+            (lo, hi)
+        }
+    }
+
+    /// The sample at (i, j, k), clamped into the grid; 0 for an empty volume.
+    pub fn get(&self, i: i64, j: i64, k: i64) -> f32 {
+        if self.dims.contains(&0) {
+            return 0.0;
+        }
+        let c = |v: i64, n: usize| v.clamp(0, n as i64 - 1) as usize;
+        let idx = c(i, self.dims[0]) + self.dims[0] * (c(j, self.dims[1]) + self.dims[1] * c(k, self.dims[2]));
+        self.data.get(idx).copied().unwrap_or(0.0)
+    }
+
+    /// Trilinear interpolation at a continuous voxel position (clamped to the grid).
+    pub fn trilinear(&self, p: [f64; 3]) -> f64 {
+        let mut base = [0i64; 3];
+        let mut t = [0f64; 3];
+        for a in 0..3 {
+            let n = self.dims[a].max(1) as f64;
+            let x = if p[a].is_nan() { 0.0 } else { p[a].clamp(0.0, n - 1.0) };
+            let i0 = x.floor().min((n - 2.0).max(0.0));
+            base[a] = i0 as i64;
+            t[a] = x - i0;
+        }
+        let mut acc = 0.0;
+        for corner in 0..8 {
+            let o = [(corner & 1) as i64, ((corner >> 1) & 1) as i64, ((corner >> 2) & 1) as i64];
+            let w: f64 = (0..3).map(|a| if o[a] == 1 { t[a] } else { 1.0 - t[a] }).product();
+            if w != 0.0 {
+                acc += w * self.get(base[0] + o[0], base[1] + o[1], base[2] + o[2]) as f64;
+            }
+        }
+        acc
+    }
+}
+
+/// Samples on the integer-embedded lattice L over a box [0, n)^3 of Z^3 (only lattice points carry data).
+#[derive(Clone, Debug, PartialEq)]
+pub struct LatticeVolume {
+    /// The data lattice (3-D), embedded in Z^3.
+    pub lattice: Lattice,
+    /// Box size (nx, ny, nz) in Z^3 (integer points, not lattice points).
+    pub dims: [usize; 3],
+    /// Embedded samples, x fastest, 0 at non-lattice points.
+    pub data: Vec<f32>,
+}
+
+impl LatticeVolume {
+    /// Whether integer point `j` is a lattice point (ignores the box).
+    pub fn is_lattice(&self, j: &[i64]) -> bool {
+        self.lattice.contains(j)
+    }
+
+    /// Clamps j into the box, like the shaders' fetch (embedded layout); returns
+    /// the stored value (0 at non-lattice points; missing coordinates count as 0).
+    pub fn get(&self, j: &[i64]) -> f32 {
+        if self.dims.contains(&0) {
+            return 0.0;
+        }
+        let c = |a: usize| j.get(a).copied().unwrap_or(0).clamp(0, self.dims[a] as i64 - 1) as usize;
+        let idx = c(0) + self.dims[0] * (c(1) + self.dims[1] * c(2));
+        self.data.get(idx).copied().unwrap_or(0.0)
+    }
+}
