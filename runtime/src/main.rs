@@ -86,6 +86,10 @@ enum Command {
         /// Fetch bounds: clamp to the volume, or unchecked (caller pads).
         #[arg(long, value_parser = ["clamp", "unchecked"], default_value = "clamp")]
         bounds: String,
+        /// Fetches in eval: exact texel loads, or hardware linear filtering
+        /// (tensor-product filters on the cc lattice, embedded layout).
+        #[arg(long, value_parser = ["exact", "linear"], default_value = "exact")]
+        fetch: String,
         #[arg(long, default_value_t = 100_000)]
         points: usize,
         #[arg(long, default_value_t = 1)]
@@ -338,7 +342,7 @@ fn run(cli: Cli) -> Result<(), Failure> {
             Ok(())
         }
         Command::Demo { out, size, adapter } => demo::run(&out, size, adapter.as_deref()).map_err(Failure),
-        Command::Verify { filter, layout, variant, form, bounds, points, seed, adapter, json } => {
+        Command::Verify { filter, layout, variant, form, bounds, fetch, points, seed, adapter, json } => {
             let f = spec::resolve(&filter)?;
             let d = Derivation::new(&f)?;
             let gpu = boxforge_runtime::gpu::Gpu::new(adapter.as_deref()).map_err(|e| Failure(e.to_string()))?;
@@ -346,18 +350,21 @@ fn run(cli: Cli) -> Result<(), Failure> {
             let variant = Variant::parse(&variant).expect("clap checked");
             let form = form.map(|f| boxforge::emit::EvalForm::parse(&f).expect("clap checked"));
             let bounds = boxforge::emit::Bounds::parse(&bounds).expect("clap checked");
-            let r = boxforge_runtime::verify::verify_with(&gpu, &d, layout, variant, form, bounds, points, seed)
-                .map_err(|e| Failure(e.to_string()))?;
+            let fetch = boxforge::emit::FetchMode::parse(&fetch).expect("clap checked");
+            let r =
+                boxforge_runtime::verify::verify_fetch(&gpu, &d, layout, variant, form, bounds, fetch, points, seed)
+                    .map_err(|e| Failure(e.to_string()))?;
             if json {
                 println!("{}", serde_json::to_string(&r).unwrap());
             } else {
                 println!(
-                    "{} ({}, {}, form {}, {} fetches) on {}: {} points, max |value error| {:.3e} (range {:.3}), max relative gradient error {:.3e}: {}",
+                    "{} ({}, {}, form {}, {} {} fetches) on {}: {} points, max |value error| {:.3e} (range {:.3}), max relative gradient error {:.3e}: {}",
                     r.filter,
                     layout.name(),
                     variant.name(),
                     r.form.name(),
                     r.bounds.name(),
+                    r.fetch.name(),
                     r.adapter,
                     r.points,
                     r.max_abs_err,

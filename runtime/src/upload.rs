@@ -10,6 +10,9 @@ use wgpu::util::DeviceExt;
 pub struct DeviceVolume {
     pub layout: Layout,
     texture_view: Option<wgpu::TextureView>,
+    /// Embedded layout with `fetch = linear`: the texture is bound as
+    /// filterable and a linear clamp-to-edge sampler sits at binding + 4.
+    sampler: Option<wgpu::Sampler>,
     buffers: Vec<wgpu::Buffer>,
     /// Bytes on the device for the samples.
     pub bytes: usize,
@@ -42,30 +45,80 @@ impl DeviceVolume {
                     )
                 })?;
                 let view = tex.create_view(&wgpu::TextureViewDescriptor::default());
-                Ok(DeviceVolume { layout, texture_view: Some(view), buffers: vec![], bytes: v.data.len() * 4 })
+                Ok(DeviceVolume {
+                    layout,
+                    texture_view: Some(view),
+                    sampler: None,
+                    buffers: vec![],
+                    bytes: v.data.len() * 4,
+                })
             }
             Layout::Packed => {
                 let (words, grid) = v.packed().map_err(|e| GpuError::Runtime(e.to_string()))?;
                 let samples = gpu.storage_buffer("packed samples", bytemuck::cast_slice(&words), false);
                 let grid = gpu.uniform_buffer("packed grid", bytemuck::cast_slice(&grid));
-                Ok(DeviceVolume { layout, texture_view: None, buffers: vec![samples, grid], bytes: words.len() * 4 })
+                Ok(DeviceVolume {
+                    layout,
+                    texture_view: None,
+                    sampler: None,
+                    buffers: vec![samples, grid],
+                    bytes: words.len() * 4,
+                })
             }
         }
+    }
+
+    /// The embedded layout bound for hardware-filtered fetches (modules
+    /// emitted with `FetchMode::Linear`): a filterable texture and a linear
+    /// clamp-to-edge sampler at binding + 4. Needs FLOAT32_FILTERABLE.
+    pub fn new_filtered(gpu: &Gpu, v: &LatticeVolume) -> Result<DeviceVolume, GpuError> {
+        if !gpu.device.features().contains(wgpu::Features::FLOAT32_FILTERABLE) {
+            return Err(GpuError::Runtime(
+                "fetch = linear needs hardware filtering of R32Float textures (FLOAT32_FILTERABLE), which this adapter lacks; use exact fetches".into(),
+            ));
+        }
+        let mut dv = DeviceVolume::new(gpu, v, Layout::Embedded)?;
+        dv.sampler = Some(gpu.device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("linear samples"),
+            address_mode_u: wgpu::AddressMode::ClampToEdge,
+            address_mode_v: wgpu::AddressMode::ClampToEdge,
+            address_mode_w: wgpu::AddressMode::ClampToEdge,
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            ..Default::default()
+        }));
+        Ok(dv)
+    }
+
+    /// Whether the samples are bound for hardware filtering.
+    pub fn filtered(&self) -> bool {
+        self.sampler.is_some()
     }
 
     /// Layout entries starting at `first` (binding numbers used by the emitter).
     pub fn layout_entries(&self, first: u32, visibility: wgpu::ShaderStages) -> Vec<wgpu::BindGroupLayoutEntry> {
         match self.layout {
-            Layout::Embedded => vec![wgpu::BindGroupLayoutEntry {
-                binding: first,
-                visibility,
-                ty: wgpu::BindingType::Texture {
-                    sample_type: wgpu::TextureSampleType::Float { filterable: false },
-                    view_dimension: wgpu::TextureViewDimension::D3,
-                    multisampled: false,
-                },
-                count: None,
-            }],
+            Layout::Embedded => {
+                let mut e = vec![wgpu::BindGroupLayoutEntry {
+                    binding: first,
+                    visibility,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: self.filtered() },
+                        view_dimension: wgpu::TextureViewDimension::D3,
+                        multisampled: false,
+                    },
+                    count: None,
+                }];
+                if self.filtered() {
+                    e.push(wgpu::BindGroupLayoutEntry {
+                        binding: first + 4,
+                        visibility,
+                        ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                        count: None,
+                    });
+                }
+                e
+            }
             Layout::Packed => vec![
                 wgpu::BindGroupLayoutEntry {
                     binding: first,
@@ -93,10 +146,16 @@ impl DeviceVolume {
 
     pub fn bind_entries(&self, first: u32) -> Vec<wgpu::BindGroupEntry<'_>> {
         match self.layout {
-            Layout::Embedded => vec![wgpu::BindGroupEntry {
-                binding: first,
-                resource: wgpu::BindingResource::TextureView(self.texture_view.as_ref().unwrap()),
-            }],
+            Layout::Embedded => {
+                let mut e = vec![wgpu::BindGroupEntry {
+                    binding: first,
+                    resource: wgpu::BindingResource::TextureView(self.texture_view.as_ref().unwrap()),
+                }];
+                if let Some(s) = &self.sampler {
+                    e.push(wgpu::BindGroupEntry { binding: first + 4, resource: wgpu::BindingResource::Sampler(s) });
+                }
+                e
+            }
             Layout::Packed => vec![
                 wgpu::BindGroupEntry { binding: first, resource: self.buffers[0].as_entire_binding() },
                 wgpu::BindGroupEntry { binding: first + 1, resource: self.buffers[1].as_entire_binding() },

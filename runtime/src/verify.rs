@@ -5,7 +5,7 @@ use crate::gpu::{Gpu, GpuError};
 use crate::upload::{storage_entry, DeviceVolume};
 use crate::volume::LatticeVolume;
 use boxforge::derive::Derivation;
-use boxforge::emit::{emit, Bounds, EmitOptions, EvalForm, Layout, Variant};
+use boxforge::emit::{emit, Bounds, EmitOptions, EvalForm, FetchMode, Layout, Variant};
 use serde::Serialize;
 
 #[derive(Clone, Debug, Serialize)]
@@ -16,6 +16,7 @@ pub struct VerifyReport {
     /// The evaluation form that was emitted (the filter's choice unless forced).
     pub form: EvalForm,
     pub bounds: Bounds,
+    pub fetch: FetchMode,
     pub points: usize,
     /// max |GPU value - exact value| (also over eval vs eval_grad.x).
     pub max_abs_err: f64,
@@ -118,6 +119,7 @@ pub fn gpu_eval_with(
             command: "boxforge verify".into(),
             form,
             bounds,
+            fetch: if vol.filtered() { FetchMode::Linear } else { FetchMode::Exact },
             ..Default::default()
         },
     )
@@ -236,6 +238,24 @@ pub fn verify_with(
     points: usize,
     seed: u64,
 ) -> Result<VerifyReport, GpuError> {
+    verify_fetch(gpu, d, layout, variant, form, bounds, FetchMode::Exact, points, seed)
+}
+
+/// [`verify_with`] with a fetch mode: `FetchMode::Linear` binds the samples
+/// for hardware filtering ([`DeviceVolume::new_filtered`]); lavapipe filters
+/// in float, so the same tolerance applies.
+#[allow(clippy::too_many_arguments)]
+pub fn verify_fetch(
+    gpu: &Gpu,
+    d: &Derivation,
+    layout: Layout,
+    variant: Variant,
+    form: Option<EvalForm>,
+    bounds: Bounds,
+    fetch: FetchMode,
+    points: usize,
+    seed: u64,
+) -> Result<VerifyReport, GpuError> {
     if d.facts.dim != 3 {
         return Err(GpuError::Runtime(format!(
             "{} is {}D: the runtime verifies 3D filters (2D shaders are checked by naga only)",
@@ -244,7 +264,13 @@ pub fn verify_with(
     }
     let vol = random_volume(d, seed);
     let pts = random_points(d, &vol, points, seed);
-    let dv = DeviceVolume::new(gpu, &vol, layout)?;
+    let dv = match (fetch, layout) {
+        (FetchMode::Linear, Layout::Embedded) => DeviceVolume::new_filtered(gpu, &vol)?,
+        (FetchMode::Linear, _) => {
+            return Err(GpuError::Runtime("fetch = linear needs the embedded layout; use --layout embedded".into()))
+        }
+        _ => DeviceVolume::new(gpu, &vol, layout)?,
+    };
     let (values, grads, used) = gpu_eval_with(gpu, d, &dv, variant, form, bounds, &pts)?;
     let exact = cpu_eval(d, &vol, &pts);
     let (lo, hi) = vol.data.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
@@ -264,6 +290,7 @@ pub fn verify_with(
         variant,
         form: used,
         bounds,
+        fetch,
         points,
         max_abs_err: max_abs,
         max_rel_grad_err: max_rel,

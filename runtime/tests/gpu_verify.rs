@@ -98,3 +98,30 @@ fn every_evaluation_form_matches_the_exact_evaluator_on_the_device() {
     }
     assert!(failures.is_empty(), "{failures:#?}");
 }
+
+/// Hardware-filtered (linear) fetches: tricubic in 8 fetches and trilinear
+/// in one, within 1e-5 of the range on lavapipe (which filters in float).
+#[test]
+fn linear_fetches_match_the_exact_evaluator_on_the_device() {
+    use boxforge::emit::{Bounds, FetchMode};
+    use boxforge_runtime::verify::verify_fetch;
+    let gpu = gpu();
+    if !gpu.device.features().contains(wgpu::Features::FLOAT32_FILTERABLE) {
+        eprintln!("skipped: this adapter cannot filter R32Float");
+        return;
+    }
+    for name in ["cc_tricubic", "cc_trilinear", "cc_triquadratic"] {
+        let d = Derivation::new(&boxforge::spec::catalog::get(name).unwrap()).unwrap();
+        let r =
+            verify_fetch(&gpu, &d, Layout::Embedded, Variant::Fast, None, Bounds::Clamp, FetchMode::Linear, 1500, 13)
+                .unwrap();
+        eprintln!("{name} linear: value {:.2e} grad {:.2e}", r.max_abs_err, r.max_rel_grad_err);
+        assert!(r.passed, "{name}: {r:?}");
+    }
+    // Filters without a one-coset tensor structure are refused with a reason.
+    let bcc7 = Derivation::new(&boxforge::spec::catalog::get("bcc7").unwrap()).unwrap();
+    let e = verify_fetch(&gpu, &bcc7, Layout::Embedded, Variant::Fast, None, Bounds::Clamp, FetchMode::Linear, 10, 1)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("fetch = linear"), "{e}");
+}

@@ -28,7 +28,7 @@
 
 use crate::build::output::write_atomic;
 use crate::derive::Derivation;
-use crate::emit::{emit, Bounds, EmitOptions, EmitStats, EvalForm, Layout, Variant};
+use crate::emit::{emit, Bounds, EmitOptions, EmitStats, EvalForm, FetchMode, Layout, Variant};
 use crate::error::{Error, Result};
 use crate::spec::{catalog, Filter};
 use crate::validate::{check_branch_free, validate_wgsl};
@@ -70,6 +70,7 @@ pub struct Builder {
     kernels: bool,
     form: Option<EvalForm>,
     bounds: Bounds,
+    fetch: FetchMode,
     emit_rerun_if_changed: bool,
 }
 
@@ -104,6 +105,7 @@ impl Builder {
             kernels: true,
             form: None,
             bounds: Bounds::Clamp,
+            fetch: FetchMode::Exact,
             emit_rerun_if_changed: std::env::var_os("OUT_DIR").is_some(),
         }
     }
@@ -165,6 +167,15 @@ impl Builder {
     /// drops the clamp for callers that pad their volumes.
     pub fn bounds(mut self, b: Bounds) -> Self {
         self.bounds = b;
+        self
+    }
+
+    /// Fetch mode of `eval` (default [`FetchMode::Exact`]);
+    /// [`FetchMode::Linear`] uses hardware trilinear filtering where the
+    /// filter allows it (see [`FetchMode`]) and fails otherwise. The module
+    /// is written as `<filter>.embedded.linear.wgsl`.
+    pub fn fetch(mut self, f: FetchMode) -> Self {
+        self.fetch = f;
         self
     }
 
@@ -231,6 +242,7 @@ impl Builder {
             command: BUILDER_COMMAND.to_string(),
             form: self.form,
             bounds: self.bounds,
+            fetch: self.fetch,
         };
         let mut modules = Vec::new();
         for f in &filters {

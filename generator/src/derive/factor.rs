@@ -145,6 +145,90 @@ impl Factorisation {
         self.axes.iter().all(|a| (a.step * a.order as i64) % 2 == 0)
     }
 
+    /// Whether hardware linear filtering can replace pairs of exact loads:
+    /// one coset with unit steps (adjacent samples are adjacent texels of
+    /// the embedded texture), and every weight piece provably non-negative
+    /// on [0, 1] (all its Bernstein coefficients >= 0, checked exactly).
+    pub fn supports_linear_fetch(&self) -> bool {
+        self.cosets.len() == 1
+            && self.axes.iter().all(|a| a.step == 1)
+            && self.axes.iter().all(|a| a.pieces.iter().all(|p| bernstein_01(p).iter().all(|b| !b.is_negative())))
+    }
+
+    /// Hardware-filtered fetches per evaluation: ceil(n_i / 2) per axis.
+    pub fn linear_fetches(&self) -> usize {
+        self.axes.iter().map(|a| a.order.div_ceil(2)).product()
+    }
+
+    /// The linear-fetch evaluation in f64, as a GPU computes it: per axis,
+    /// pairs (k, k+1) of samples become one fetch at f - k - w_{k+1}/(w_k +
+    /// w_{k+1}) with weight w_k + w_{k+1}, then the hardware interpolates the
+    /// 2^s texels around each fetch position. `frac_bits`: round the
+    /// interpolation fraction to that many bits (CUDA documents 8 fractional
+    /// bits for its texture filtering weights; None: exact).
+    pub fn eval_linear_f64(&self, x: &[f64], data: &dyn Fn(&[i64]) -> f64, frac_bits: Option<u32>) -> f64 {
+        let s = self.axes.len();
+        let v = &self.cosets[0];
+        // Per axis: (position, weight) of each fetch.
+        let mut fetches: Vec<Vec<(f64, f64)>> = Vec::new();
+        for i in 0..s {
+            let a = &self.axes[i];
+            let si = (x[i] - v[i] as f64) / a.step as f64 + a.order as f64 / 2.0;
+            let f = si.floor();
+            let t = si - f;
+            let w: Vec<f64> =
+                a.pieces.iter().map(|p| p.iter().rev().fold(0.0, |acc, c| acc * t + c.to_f64())).collect();
+            let mut axis = Vec::new();
+            let mut k = 0;
+            while k < a.order {
+                let pos0 = v[i] as f64 + a.step as f64 * (f - k as f64);
+                if k + 1 < a.order {
+                    let g = w[k] + w[k + 1];
+                    let h = if g > 0.0 { w[k + 1] / g } else { 0.0 };
+                    axis.push((pos0 - h * a.step as f64, g));
+                } else {
+                    axis.push((pos0, w[k]));
+                }
+                k += 2;
+            }
+            fetches.push(axis);
+        }
+        let counts: Vec<usize> = fetches.iter().map(|f| f.len()).collect();
+        let mut total = 0.0;
+        for idx in odometer(&counts) {
+            let mut weight = self.scale.to_f64();
+            let mut pos = vec![0.0; s];
+            for i in 0..s {
+                let (p, g) = fetches[i][idx[i]];
+                weight *= g;
+                pos[i] = p;
+            }
+            // Hardware interpolation between the texels around pos.
+            let base: Vec<i64> = pos.iter().map(|p| p.floor() as i64).collect();
+            let frac: Vec<f64> = pos
+                .iter()
+                .zip(&base)
+                .map(|(p, b)| {
+                    let f = p - *b as f64;
+                    match frac_bits {
+                        Some(bits) => (f * (1u64 << bits) as f64).round() / (1u64 << bits) as f64,
+                        None => f,
+                    }
+                })
+                .collect();
+            let mut value = 0.0;
+            for corner in odometer(&vec![2; s]) {
+                let j: Vec<i64> = (0..s).map(|i| base[i] + corner[i] as i64).collect();
+                let w: f64 = (0..s).map(|i| if corner[i] == 1 { frac[i] } else { 1.0 - frac[i] }).product();
+                if w != 0.0 {
+                    value += w * data(&j);
+                }
+            }
+            total += weight * value;
+        }
+        total
+    }
+
     /// Samples per evaluation: cosets x prod n_i.
     pub fn fetches(&self) -> usize {
         self.cosets.len() * self.axes.iter().map(|a| a.order).product::<usize>()
@@ -177,6 +261,17 @@ impl Factorisation {
         }
         total * &self.scale
     }
+}
+
+/// Bernstein coefficients over [0, 1] of sum_e c_e t^e (degree len - 1).
+pub fn bernstein_01(coeffs: &[Q]) -> Vec<Q> {
+    use crate::math::exact::binomial;
+    let deg = coeffs.len().saturating_sub(1);
+    (0..=deg)
+        .map(|j| {
+            (0..=j).map(|e| coeffs[e].clone() * binomial(j as u32, e as u32) / binomial(deg as u32, e as u32)).sum()
+        })
+        .collect()
 }
 
 /// Every multi-index k with 0 <= k_i < n_i, first index fastest.
@@ -231,6 +326,23 @@ mod tests {
                 assert_eq!(fac.eval_exact(&x, &data), d.eval_exact(&x, &data), "{name} at {x:?}");
             }
         }
+        // Linear fetches: exact for cc (one coset, unit steps), refused on bcc.
+        let tc = Factorisation::of(&catalog::get("cc_tricubic").unwrap()).unwrap();
+        assert!(tc.supports_linear_fetch() && tc.linear_fetches() == 8);
+        assert!(!Factorisation::of(&catalog::get("bcc12").unwrap()).unwrap().supports_linear_fetch());
+        let dataf = |j: &[i64]| ((j[0] * 7 + j[1] * 3 - j[2] * 5).rem_euclid(11) - 4) as f64;
+        let dataq = |j: &[i64]| Q::int((j[0] * 7 + j[1] * 3 - j[2] * 5).rem_euclid(11) - 4);
+        let mut worst8: f64 = 0.0;
+        for i in 0..20 {
+            let x: Vec<f64> = (0..3).map(|c| ((i * 37 + c * 101) % 97) as f64 / 9.7 - 3.0).collect();
+            let xq: Vec<Q> = x.iter().map(|v| Q::frac((v * 1e6).round() as i64, 1_000_000)).collect();
+            let xr: Vec<f64> = xq.iter().map(|q| q.to_f64()).collect();
+            let exact = tc.eval_exact(&xq, &dataq).to_f64();
+            assert!((tc.eval_linear_f64(&xr, &dataf, None) - exact).abs() < 1e-9);
+            worst8 = worst8.max((tc.eval_linear_f64(&xr, &dataf, Some(8)) - exact).abs());
+        }
+        // 8-bit weights cost accuracy (data range 10): visible, but bounded.
+        assert!(worst8 > 1e-6 && worst8 < 0.2, "{worst8}");
         for name in ["bcc7", "fcc6", "zp"] {
             assert!(Factorisation::of(&catalog::get(name).unwrap()).is_none(), "{name}");
         }

@@ -239,3 +239,93 @@ pub(crate) fn emit_factored_bounds(fac: &Factorisation, sh: &Shapes, name: &str)
     let _ = writeln!(out, "    return vec2<f32>(lo, hi);\n}}");
     out
 }
+
+/// `<f>_eval` with hardware-filtered fetches (Sigg & Hadwiger's scheme,
+/// derived here for any tensor-product filter that
+/// [`Factorisation::supports_linear_fetch`]): per axis the non-negative
+/// weights of samples k and k+1 become one fetch at f - k - w_{k+1} / g with
+/// weight g = w_k + w_{k+1} (a select keeps g = 0 free of a division by
+/// zero); the fetches combine as a tensor product of the g.
+pub(crate) fn emit_factored_linear_body(fac: &Factorisation, sh: &Shapes, name: &str) -> String {
+    let s = sh.s;
+    let mut body = Body::new();
+    let v = &fac.cosets[0];
+    let add: Vec<Q> = (0..s).map(|i| Q::frac(fac.axes[i].order as i64, 2) - Q::int(v[i])).collect();
+    let sx = if add.iter().all(|a| *a == add[0]) {
+        format!("p + {}", lit(&add[0]))
+    } else {
+        format!("p + {}", sh.fvec(&add.iter().map(lit).collect::<Vec<_>>()))
+    };
+    let sv = body.bind("s", &sx);
+    let fl = body.bind("fl", &format!("floor({sv})"));
+    let t = body.bind("t", &format!("{sv} - {fl}"));
+    // Texture coordinates: (position + 0.5) / size, with the 0.5 folded in.
+    let inv = body.bind("inv", &format!("1.0 / {}({name}_volume_size())", sh.vecf));
+    let mut per_axis: Vec<Vec<(String, String)>> = Vec::new(); // (position, weight)
+    for (i, a) in fac.axes.iter().enumerate() {
+        let ti = format!("{t}.{}", AXES[i]);
+        let deg = a.order - 1;
+        let mut pows = vec!["1.0".to_string(), ti.clone()];
+        for e in 2..=deg {
+            let prev = pows[e - 1].clone();
+            pows.push(body.bind("tp", &format!("{prev} * {ti}")));
+        }
+        let scale = if i == s - 1 { fac.scale.clone() } else { Q::one() };
+        let w: Vec<String> = a
+            .pieces
+            .iter()
+            .map(|pc| {
+                let e = poly_expr(&pc.iter().map(|c| c.clone() * &scale).collect::<Vec<_>>(), &pows);
+                if e.contains(' ') || e.contains('*') {
+                    body.bind("wt", &e)
+                } else {
+                    e
+                }
+            })
+            .collect();
+        let base = format!("{fl}.{}", AXES[i]);
+        let mut fetches = Vec::new();
+        let mut k = 0;
+        while k < a.order {
+            // Sample k sits at f - k; +0.5 moves to the texel centre.
+            let pos0 = Q::frac(1, 2) - Q::int(k as i64);
+            if k + 1 < a.order {
+                let g = body.bind("g", &format!("{} + {}", w[k], w[k + 1]));
+                let h = body.bind("h", &format!("select(0.0, {} / {g}, {g} > 0.0)", w[k + 1]));
+                let pos = body.bind("x", &format!("({base} + {} - {h}) * {inv}.{}", lit(&pos0), AXES[i]));
+                fetches.push((pos, g));
+            } else {
+                let pos = body.bind("x", &format!("({base} + {}) * {inv}.{}", lit(&pos0), AXES[i]));
+                fetches.push((pos, w[k].clone()));
+            }
+            k += 2;
+        }
+        per_axis.push(fetches);
+    }
+    let counts: Vec<usize> = per_axis.iter().map(|f| f.len()).collect();
+    let samples: Vec<String> = odometer(&counts)
+        .iter()
+        .map(|idx| {
+            let pos: Vec<String> = (0..s).map(|i| per_axis[i][idx[i]].0.clone()).collect();
+            body.bind("f", &format!("{name}_fetch_linear({})", sh.fvec(&pos)))
+        })
+        .collect();
+    // Contract axis by axis with the pair weights g.
+    let mut entries = samples;
+    for i in 0..s {
+        let ws: Vec<String> = per_axis[i].iter().map(|(_, g)| g.clone()).collect();
+        entries = entries
+            .chunks(counts[i])
+            .map(|xs| {
+                let e = dot(&ws, xs);
+                if e.contains(' ') {
+                    body.bind("c", &e)
+                } else {
+                    e
+                }
+            })
+            .collect();
+    }
+    body.line(&format!("return {};", entries[0]));
+    body.text
+}

@@ -103,6 +103,39 @@ pub struct EmitOptions {
     pub form: Option<EvalForm>,
     /// Out-of-range fetches: clamp to the volume (default) or trust the caller.
     pub bounds: Bounds,
+    /// Exact texel loads (default) or hardware-filtered (linear) fetches in `eval`.
+    pub fetch: FetchMode,
+}
+
+/// How `eval` reads the samples.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum FetchMode {
+    /// One exact `textureLoad` (or buffer read) per stencil sample.
+    #[default]
+    Exact,
+    /// Hardware trilinear filtering: pairs of adjacent samples with
+    /// non-negative weights become one `textureSampleLevel` (tensor-product
+    /// filters on one coset; embedded layout; a filterable texture and a
+    /// linear sampler at binding + 4). Real GPUs interpolate with about 8-bit
+    /// weights; `eval_grad` keeps exact loads.
+    Linear,
+}
+
+impl FetchMode {
+    pub fn name(self) -> &'static str {
+        match self {
+            FetchMode::Exact => "exact",
+            FetchMode::Linear => "linear",
+        }
+    }
+    pub fn parse(s: &str) -> Option<FetchMode> {
+        match s {
+            "exact" => Some(FetchMode::Exact),
+            "linear" => Some(FetchMode::Linear),
+            _ => None,
+        }
+    }
 }
 
 /// What a fetch does with positions outside the volume.
@@ -162,6 +195,7 @@ impl Default for EmitOptions {
             command: "boxforge generate".into(),
             form: None,
             bounds: Bounds::Clamp,
+            fetch: FetchMode::Exact,
         }
     }
 }
@@ -184,6 +218,7 @@ pub struct EmitStats {
     pub form: EvalForm,
     pub forms: Vec<FormCost>,
     pub bounds: Bounds,
+    pub fetch: FetchMode,
 }
 
 #[derive(Clone, Debug)]
@@ -208,7 +243,11 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
     let sh = Shapes::new(s);
     let name = &d.filter.name;
     let naive = opts.variant == Variant::Naive;
-    let requested = opts.form.unwrap_or(d.filter.form);
+    let mut requested = opts.form.unwrap_or(d.filter.form);
+    if opts.fetch == FetchMode::Linear && requested == EvalForm::Auto && d.factorisation().is_some() {
+        // Linear fetches are a property of the factored form.
+        requested = EvalForm::Factored;
+    }
     let (form, forms, eval_body, grad_body) = if naive {
         // The naive variant measures branches and tables, on the dense form.
         let e = emit_eval_body(d, &plan, &sh, name, false, true, PieceForm::Dense);
@@ -223,6 +262,28 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
     } else {
         choose_form(d, &plan, &sh, name, requested)?
     };
+    let (eval_body, fetches_linear) =
+        if opts.fetch == FetchMode::Linear {
+            let refuse = |why: &str| Error::Spec {
+                origin: format!("filter {name}"),
+                message: format!("fetch = linear {why}; use exact fetches"),
+            };
+            if naive || opts.layout != Layout::Embedded {
+                return Err(refuse("needs the fast variant and the embedded layout"));
+            }
+            match d.factorisation() {
+                Some(fac) if fac.supports_linear_fetch() && form == EvalForm::Factored => {
+                    (factored::emit_factored_linear_body(&fac, &sh, name), Some(fac.linear_fetches()))
+                }
+                Some(_) if form != EvalForm::Factored => return Err(refuse("needs the factored form")),
+                _ => return Err(refuse(
+                    "needs a tensor-product filter on one coset with unit steps (adjacent samples in one texture); \
+                     other filters need per-coset filterable textures, which are not implemented yet",
+                )),
+            }
+        } else {
+            (eval_body, None)
+        };
     let fetches = match form {
         EvalForm::Factored => forms.iter().find(|f| f.form == form).map(|f| f.fetches).unwrap_or(0),
         _ => plan.fetches(),
@@ -321,6 +382,7 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
         cube_in_block => cube_in_block,
         prefilter_body => prefilter_body,
         clamp => opts.bounds == Bounds::Clamp,
+        linear => opts.fetch == FetchMode::Linear,
     };
     let source = tmpl.render(ctx).map_err(|e| Error::Spec { origin: "templates".into(), message: e.to_string() })?;
     let stats = EmitStats {
@@ -328,7 +390,7 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
         variant: opts.variant,
         locate: format!("{:?}", plan.locate),
         candidates: plan.candidates.len(),
-        fetches_per_eval: fetches,
+        fetches_per_eval: fetches_linear.unwrap_or(fetches),
         vector_adds: plan.vector_adds,
         matvec_adds: plan.matvec_adds,
         ops_eval: count_ops(&eval_body),
@@ -336,8 +398,13 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
         form,
         forms,
         bounds: opts.bounds,
+        fetch: opts.fetch,
     };
-    Ok(Emitted { file_name: file_name(name, opts.layout, opts.variant), source, stats })
+    let mut file = file_name(name, opts.layout, opts.variant);
+    if opts.fetch == FetchMode::Linear {
+        file = file.replace(".wgsl", ".linear.wgsl");
+    }
+    Ok(Emitted { file_name: file, source, stats })
 }
 
 /// Emits every available form, and picks the requested one or (auto) the

@@ -14,10 +14,11 @@ use crate::upload::{storage_entry, DeviceVolume};
 use crate::verify::{random_volume, Rng};
 use crate::volume::{marschner_lobb, marschner_lobb_grad, ml_position, LatticeVolume, Volume};
 use boxforge::derive::Derivation;
-use boxforge::emit::{emit, Bounds, EmitOptions, EvalForm, Layout, Variant};
+use boxforge::emit::{emit, Bounds, EmitOptions, EvalForm, FetchMode, Layout, Variant};
 
 const TAG_DENSE: &str = "dense form";
 const TAG_UNCHECKED: &str = "unchecked fetches";
+const TAG_LINEAR: &str = "linear fetches";
 use references::Reference;
 use serde::Serialize;
 use stats::{median, round_order, Ratio};
@@ -504,10 +505,23 @@ pub fn run(gpu: &Gpu, o: &BenchOptions, progress: &dyn Fn(&str)) -> Result<Bench
                         EmitOptions { form: Some(EvalForm::Dense), ..base.clone() },
                     ));
                 }
-                modules.push((Variant::Fast, Some(TAG_UNCHECKED), EmitOptions { bounds: Bounds::Unchecked, ..base }));
+                modules.push((
+                    Variant::Fast,
+                    Some(TAG_UNCHECKED),
+                    EmitOptions { bounds: Bounds::Unchecked, ..base.clone() },
+                ));
+                if can_filter_f32(gpu) && d.factorisation().is_some_and(|f| f.supports_linear_fetch()) {
+                    modules.push((Variant::Fast, Some(TAG_LINEAR), EmitOptions { fetch: FetchMode::Linear, ..base }));
+                }
             }
+            let dv_filtered = if modules.iter().any(|m| m.1 == Some(TAG_LINEAR)) {
+                Some(DeviceVolume::new_filtered(gpu, &vol).map_err(e)?)
+            } else {
+                None
+            };
             for (variant, tag, opts) in modules {
                 let m = emit(&d, &opts).map_err(|x| x.to_string())?;
+                let dv = if tag == Some(TAG_LINEAR) { dv_filtered.as_ref().unwrap_or(&dv) } else { &dv };
                 for (kind, call) in [
                     ("eval", format!("vec4<f32>({name}_eval(p), 0.0, 0.0, 0.0)")),
                     ("eval_grad", format!("{name}_eval_grad(p)")),
@@ -515,7 +529,7 @@ pub fn run(gpu: &Gpu, o: &BenchOptions, progress: &dyn Fn(&str)) -> Result<Bench
                     progress(&format!("{name} {} {} {kind}: compile", layout.name(), variant.name()));
                     let src = program(&m.source, "", &call);
                     let sample = if variant == Variant::Naive { &pts[..pts.len().min(8192)] } else { &pts[..] };
-                    let job = Job::new(gpu, &src, &m.file_name, &dv, sample).map_err(e)?;
+                    let job = Job::new(gpu, &src, &m.file_name, dv, sample).map_err(e)?;
                     cs.push(Contender {
                         layout,
                         variant,
@@ -539,6 +553,10 @@ pub fn run(gpu: &Gpu, o: &BenchOptions, progress: &dyn Fn(&str)) -> Result<Bench
                 (Some(TAG_DENSE), _, _) => (
                     find(Layout::Embedded, Variant::Fast, c.kind).map(|f| Ratio::of_rates(&rates[f], &rates[k])),
                     Some("chosen form ÷ dense form".to_string()),
+                ),
+                (Some(TAG_LINEAR), _, _) => (
+                    find(Layout::Embedded, Variant::Fast, c.kind).map(|f| Ratio::of_rates(&rates[k], &rates[f])),
+                    Some("linear ÷ exact fetches".to_string()),
                 ),
                 (Some(_), _, _) => (
                     find(Layout::Embedded, Variant::Fast, c.kind).map(|f| Ratio::of_rates(&rates[k], &rates[f])),
@@ -784,12 +802,18 @@ pub fn compare_reference(gpu: &Gpu, r: &Reference, points: usize, rounds: usize)
     let pts = crate::verify::random_points(&d, &vol, points, 23);
     let (lo, hi) = vol.data.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &x| (a.min(x), b.max(x)));
     let data_range = (hi - lo).max(f32::MIN_POSITIVE) as f64;
-    let m = emit(&d, &EmitOptions { kernels: false, ..Default::default() }).map_err(|x| x.to_string())?;
+    // A reference that uses hardware filtering meets the generated module
+    // with linear fetches where the filter allows them (same fetch budget).
+    let linear = references::uses_sampler(&r.source)
+        && can_filter_f32(gpu)
+        && d.factorisation().is_some_and(|f| f.supports_linear_fetch());
+    let fetch = if linear { FetchMode::Linear } else { FetchMode::Exact };
+    let m = emit(&d, &EmitOptions { kernels: false, fetch, ..Default::default() }).map_err(|x| x.to_string())?;
     let module_with_ref = format!("{}\n{}", m.source, r.source);
     let reference_ops = references::ops(&module_with_ref, &r.source, &r.entry);
     let mut row = ReferenceRow {
         filter: name.clone(),
-        generated: format!("{name}_eval"),
+        generated: if linear { format!("{name}_eval (linear fetches)") } else { format!("{name}_eval") },
         reference: r.name.clone(),
         entry: r.entry.clone(),
         citation: r.citation.clone(),
@@ -814,7 +838,9 @@ pub fn compare_reference(gpu: &Gpu, r: &Reference, points: usize, rounds: usize)
         ));
         return Ok(row);
     }
-    let dv = DeviceVolume::new(gpu, &vol, Layout::Embedded).map_err(e)?;
+    let dv =
+        if linear { DeviceVolume::new_filtered(gpu, &vol) } else { DeviceVolume::new(gpu, &vol, Layout::Embedded) }
+            .map_err(e)?;
     let ours = program(&m.source, "", &format!("vec4<f32>({name}_eval(p), 0.0, 0.0, 0.0)"));
     let theirs = program(&m.source, &r.source, &format!("vec4<f32>({}(p), 0.0, 0.0, 0.0)", r.entry));
     let a = Job::new(gpu, &ours, &m.file_name, &dv, &pts).map_err(e)?;
@@ -996,7 +1022,7 @@ pub fn markdown(r: &BenchReport, command: &str) -> String {
         "## Generated vs hand-written\n\nThe generated `<filter>_eval` beside hand-written shaders (runtime/references/, embedded in the binary; each cites its source), on the same random points of a random {}-ish volume, after checking max |generated - reference| < {:.0e} of the data range on those points (a comparison that fails the check is marked INVALID and not timed). Ratio: generated ÷ reference evals/s (above 1: the generated code is faster). Ops: `boxforge::emit::count_ops` on the generated eval body; on the reference, the same count over its entry function and, per call site, its own helpers (a vec4 `dot` counts 7), calls to `<filter>_fetch` excluded on both sides; fetches: texel loads over the call tree (naga) plus filtered fetches.\n",
         "64^3", REFERENCE_TOLERANCE
     );
-    let _ = writeln!(s, "| filter | reference | fetches (gen / ref) | ops (gen / ref) | generated evals/s | reference evals/s | ratio median [min..max] | tie? | max \\|diff\\| (of range) | source |\n|---|---|---|---|---|---|---|---|---|---|");
+    let _ = writeln!(s, "| generated | reference | fetches (gen / ref) | ops (gen / ref) | generated evals/s | reference evals/s | ratio median [min..max] | tie? | max \\|diff\\| (of range) | source |\n|---|---|---|---|---|---|---|---|---|---|");
     for x in &r.references {
         let (ratio, tie) = ratio_cells(&x.ratio);
         let diff = match (x.max_abs_diff, x.rel_diff) {
@@ -1015,7 +1041,7 @@ pub fn markdown(r: &BenchReport, command: &str) -> String {
         let _ = writeln!(
             s,
             "| {} | {} (`{}`) | {} / {} | {} / {} | {} | {} | {}{} | {} | {} | {} |",
-            x.filter,
+            format!("`{}`", x.generated),
             x.reference,
             x.entry,
             x.generated_fetches,
