@@ -62,3 +62,60 @@ fn emission_is_deterministic() {
     let b = emit(&boxforge_tests::derive("fcc6"), &EmitOptions::default()).unwrap().source;
     assert_eq!(a, b);
 }
+
+#[test]
+fn a_user_tensor_cubic_over_bcc_is_factored_and_small() {
+    // Issue #8: a user spec of 2e1, 2e2, 2e3 four times each on bcc emitted
+    // 410 KB of WGSL with the dense form; the factorisation must shrink it.
+    let spec = r#"
+        name = "tensor_cubic_bcc"
+        lattice = "bcc"
+        directions = [[2,0,0],[2,0,0],[2,0,0],[2,0,0],[0,2,0],[0,2,0],[0,2,0],[0,2,0],[0,0,2],[0,0,2],[0,0,2],[0,0,2]]
+    "#;
+    let f = boxforge::Filter::from_toml(spec, "test").unwrap();
+    let d = boxforge::derive::Derivation::new(&f).unwrap();
+    let e = emit(&d, &EmitOptions::default()).unwrap();
+    assert_eq!(e.stats.form, boxforge::emit::EvalForm::Factored);
+    assert!(e.source.len() < 40_000, "{} bytes", e.source.len());
+    let r = validate_wgsl(&e.source, &e.file_name);
+    assert!(r.valid, "{}", r.error.unwrap_or_default());
+    check_branch_free(&r, &["tensor_cubic_bcc_eval", "tensor_cubic_bcc_eval_grad"]).unwrap();
+    assert_eq!(r.function("tensor_cubic_bcc_eval").unwrap().total_loads, 128);
+}
+
+#[test]
+fn forms_can_be_forced_and_factored_is_refused_where_it_does_not_apply() {
+    use boxforge::emit::EvalForm;
+    let d = boxforge_tests::derive("bcc7");
+    for form in [EvalForm::Power, EvalForm::Bb, EvalForm::Dense] {
+        let e = emit(&d, &EmitOptions { form: Some(form), ..EmitOptions::default() }).unwrap();
+        assert_eq!(e.stats.form, form);
+        let r = validate_wgsl(&e.source, &e.file_name);
+        check_branch_free(&r, &["bcc7_eval", "bcc7_eval_grad"]).unwrap();
+    }
+    let auto = emit(&d, &EmitOptions::default()).unwrap().stats;
+    // Auto is the cheapest of the forms it reports.
+    assert!(auto.forms.iter().all(|f| f.cost() >= auto.ops_eval + auto.ops_eval_grad));
+    let err = emit(&d, &EmitOptions { form: Some(EvalForm::Factored), ..EmitOptions::default() }).unwrap_err();
+    assert!(err.to_string().contains("factored"), "{err}");
+}
+
+#[test]
+fn linear_fetch_modules_are_branch_free_with_eight_filtered_fetches() {
+    use boxforge::emit::FetchMode;
+    let d = boxforge_tests::derive("cc_tricubic");
+    let e = emit(&d, &EmitOptions { fetch: FetchMode::Linear, ..EmitOptions::default() }).unwrap();
+    assert_eq!(e.stats.fetches_per_eval, 8);
+    assert!(e.file_name.ends_with(".linear.wgsl"));
+    let r = validate_wgsl(&e.source, &e.file_name);
+    assert!(r.valid, "{}", r.error.unwrap_or_default());
+    check_branch_free(&r, &["cc_tricubic_eval", "cc_tricubic_eval_grad"]).unwrap();
+    let eval_src = e.source.split("fn cc_tricubic_eval(").nth(1).unwrap().split("\n}\n").next().unwrap();
+    assert_eq!(eval_src.matches("cc_tricubic_fetch_linear(").count(), 8);
+    assert_eq!(eval_src.matches("cc_tricubic_fetch(").count(), 0);
+    // bcc7 has no tensor structure, and bcc12 needs per-coset textures.
+    for name in ["bcc7", "bcc12"] {
+        let d = boxforge_tests::derive(name);
+        assert!(emit(&d, &EmitOptions { fetch: FetchMode::Linear, ..EmitOptions::default() }).is_err(), "{name}");
+    }
+}
