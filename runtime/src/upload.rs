@@ -78,15 +78,7 @@ impl DeviceVolume {
             ));
         }
         let mut dv = DeviceVolume::new(gpu, v, Layout::Embedded)?;
-        dv.sampler = Some(gpu.device.create_sampler(&wgpu::SamplerDescriptor {
-            label: Some("linear samples"),
-            address_mode_u: wgpu::AddressMode::ClampToEdge,
-            address_mode_v: wgpu::AddressMode::ClampToEdge,
-            address_mode_w: wgpu::AddressMode::ClampToEdge,
-            mag_filter: wgpu::FilterMode::Linear,
-            min_filter: wgpu::FilterMode::Linear,
-            ..Default::default()
-        }));
+        dv.sampler = Some(linear_sampler(gpu, "linear samples"));
         Ok(dv)
     }
 
@@ -162,6 +154,19 @@ impl DeviceVolume {
             ],
         }
     }
+}
+
+/// A linear-filtering, clamp-to-edge sampler (hardware trilinear fetches).
+pub fn linear_sampler(gpu: &Gpu, label: &str) -> wgpu::Sampler {
+    gpu.device.create_sampler(&wgpu::SamplerDescriptor {
+        label: Some(label),
+        address_mode_u: wgpu::AddressMode::ClampToEdge,
+        address_mode_v: wgpu::AddressMode::ClampToEdge,
+        address_mode_w: wgpu::AddressMode::ClampToEdge,
+        mag_filter: wgpu::FilterMode::Linear,
+        min_filter: wgpu::FilterMode::Linear,
+        ..Default::default()
+    })
 }
 
 /// A storage-buffer layout entry.

@@ -36,6 +36,16 @@ fn poly_expr(coeffs: &[Q], pows: &[String]) -> String {
     }
 }
 
+/// Names t^0 ..= t^deg (t^0 = "1.0", t^1 = t itself, higher ones bound once).
+fn powers(body: &mut Body, t: &str, deg: usize) -> Vec<String> {
+    let mut pows = vec!["1.0".to_string(), t.to_string()];
+    for e in 2..=deg {
+        let prev = pows[e - 1].clone();
+        pows.push(body.bind("tp", &format!("{prev} * {t}")));
+    }
+    pows
+}
+
 /// sum_k w_k x_k over non-zero weights.
 fn dot(ws: &[String], xs: &[String]) -> String {
     let terms: Vec<String> = ws
@@ -104,13 +114,7 @@ pub(crate) fn emit_factored_body(fac: &Factorisation, sh: &Shapes, name: &str, g
         let mut w: Vec<Vec<String>> = Vec::new();
         let mut dw: Vec<Vec<String>> = Vec::new();
         for (i, a) in fac.axes.iter().enumerate() {
-            let ti = format!("{t}.{}", AXES[i]);
-            let deg = a.order - 1;
-            let mut pows = vec!["1.0".to_string(), ti.clone()];
-            for e in 2..=deg {
-                let prev = pows[e - 1].clone();
-                pows.push(body.bind("tp", &format!("{prev} * {ti}")));
-            }
+            let pows = powers(&mut body, &format!("{t}.{}", AXES[i]), a.order - 1);
             let scale = if i == s - 1 { fac.scale.clone() } else { Q::one() };
             let mut wi = Vec::new();
             let mut dwi = Vec::new();
@@ -263,13 +267,7 @@ pub(crate) fn emit_factored_linear_body(fac: &Factorisation, sh: &Shapes, name: 
     let inv = body.bind("inv", &format!("1.0 / {}({name}_volume_size())", sh.vecf));
     let mut per_axis: Vec<Vec<(String, String)>> = Vec::new(); // (position, weight)
     for (i, a) in fac.axes.iter().enumerate() {
-        let ti = format!("{t}.{}", AXES[i]);
-        let deg = a.order - 1;
-        let mut pows = vec!["1.0".to_string(), ti.clone()];
-        for e in 2..=deg {
-            let prev = pows[e - 1].clone();
-            pows.push(body.bind("tp", &format!("{prev} * {ti}")));
-        }
+        let pows = powers(&mut body, &format!("{t}.{}", AXES[i]), a.order - 1);
         let scale = if i == s - 1 { fac.scale.clone() } else { Q::one() };
         let w: Vec<String> = a
             .pieces

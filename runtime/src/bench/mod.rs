@@ -300,15 +300,7 @@ impl Job {
             ],
         });
         let groups = if sampled {
-            let sampler = dev.create_sampler(&wgpu::SamplerDescriptor {
-                label: Some("ref_linear"),
-                address_mode_u: wgpu::AddressMode::ClampToEdge,
-                address_mode_v: wgpu::AddressMode::ClampToEdge,
-                address_mode_w: wgpu::AddressMode::ClampToEdge,
-                mag_filter: wgpu::FilterMode::Linear,
-                min_filter: wgpu::FilterMode::Linear,
-                ..Default::default()
-            });
+            let sampler = crate::upload::linear_sampler(gpu, "ref_linear");
             let bg_s = dev.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: None,
                 layout: &bgl_sampler,
