@@ -276,13 +276,18 @@ pub fn bernstein_01(coeffs: &[Q]) -> Vec<Q> {
 
 /// Every multi-index k with 0 <= k_i < n_i, first index fastest.
 pub fn odometer(n: &[usize]) -> Vec<Vec<usize>> {
-    let mut out = vec![vec![]];
-    for &ni in n.iter().rev() {
-        out = (0..ni).flat_map(|k| out.iter().map(move |rest| [vec![k], rest.clone()].concat())).collect();
-    }
-    // Reorder so that index 0 varies fastest.
-    out.sort_by(|a, b| a.iter().rev().cmp(b.iter().rev()));
-    out
+    let total: usize = n.iter().product();
+    (0..total)
+        .map(|mut r| {
+            n.iter()
+                .map(|&ni| {
+                    let d = r % ni;
+                    r /= ni;
+                    d
+                })
+                .collect()
+        })
+        .collect()
 }
 
 impl Derivation {

@@ -46,6 +46,46 @@ fn powers(body: &mut Body, t: &str, deg: usize) -> Vec<String> {
     pows
 }
 
+/// The B-spline coordinate of coset v: s = (p - v) / a + n / 2 (per axis),
+/// written with as few operations as the constants allow.
+fn coset_coordinate(fac: &Factorisation, sh: &Shapes, v: &[i64], p: &str) -> String {
+    let s = sh.s;
+    let mul: Vec<Q> = fac.axes.iter().map(|a| Q::frac(1, a.step)).collect();
+    let add: Vec<Q> = (0..s).map(|i| Q::frac(fac.axes[i].order as i64, 2) - Q::frac(v[i], fac.axes[i].step)).collect();
+    let vecq = |q: &[Q]| -> String {
+        if q.iter().all(|x| *x == q[0]) {
+            lit(&q[0])
+        } else {
+            sh.fvec(&q.iter().map(lit).collect::<Vec<_>>())
+        }
+    };
+    let mut sx = p.to_string();
+    if !mul.iter().all(|m| m.is_one()) {
+        sx = format!("{sx} * {}", vecq(&mul));
+    }
+    if !add.iter().all(|a| a.is_zero()) {
+        sx = format!("{sx} + {}", vecq(&add));
+    }
+    sx
+}
+
+/// The lattice point a * floor(s) + v of the sample with weight index 0.
+fn coset_base(fac: &Factorisation, sh: &Shapes, v: &[i64], floor: &str) -> String {
+    let steps: Vec<i64> = fac.axes.iter().map(|a| a.step).collect();
+    let mut jb = format!("{}({floor})", sh.veci);
+    if !steps.iter().all(|&a| a == 1) {
+        jb = if steps.iter().all(|&a| a == steps[0]) {
+            format!("{jb} * {}", steps[0])
+        } else {
+            format!("{jb} * {}", sh.ivec(&steps))
+        };
+    }
+    if v.iter().any(|&x| x != 0) {
+        jb = format!("{jb} + {}", sh.ivec(v));
+    }
+    jb
+}
+
 /// sum_k w_k x_k over non-zero weights.
 fn dot(ws: &[String], xs: &[String]) -> String {
     let terms: Vec<String> = ws
@@ -76,40 +116,11 @@ pub(crate) fn emit_factored_body(fac: &Factorisation, sh: &Shapes, name: &str, g
     let mut coset_values: Vec<String> = Vec::new();
     let mut coset_grads: Vec<Vec<String>> = Vec::new();
     for v in &fac.cosets {
-        // s = (p - v) / a + n / 2.
-        let mul: Vec<Q> = fac.axes.iter().map(|a| Q::frac(1, a.step)).collect();
-        let add: Vec<Q> =
-            (0..s).map(|i| Q::frac(fac.axes[i].order as i64, 2) - Q::frac(v[i], fac.axes[i].step)).collect();
-        let vecq = |q: &[Q]| -> String {
-            if q.iter().all(|x| *x == q[0]) {
-                lit(&q[0])
-            } else {
-                sh.fvec(&q.iter().map(lit).collect::<Vec<_>>())
-            }
-        };
-        let mut sx = "p".to_string();
-        if !mul.iter().all(|m| m.is_one()) {
-            sx = format!("{sx} * {}", vecq(&mul));
-        }
-        if !add.iter().all(|a| a.is_zero()) {
-            sx = format!("{sx} + {}", vecq(&add));
-        }
-        let sv = body.bind("s", &sx);
+        let sv = body.bind("s", &coset_coordinate(fac, sh, v, "p"));
         let fl = body.bind("fl", &format!("floor({sv})"));
         let t = body.bind("t", &format!("{sv} - {fl}"));
         let steps: Vec<i64> = fac.axes.iter().map(|a| a.step).collect();
-        let mut jb = format!("{}({fl})", sh.veci);
-        if !steps.iter().all(|&a| a == 1) {
-            jb = if steps.iter().all(|&a| a == steps[0]) {
-                format!("{jb} * {}", steps[0])
-            } else {
-                format!("{jb} * {}", sh.ivec(&steps))
-            };
-        }
-        if v.iter().any(|&x| x != 0) {
-            jb = format!("{jb} + {}", sh.ivec(v));
-        }
-        let jb = body.bind("jb", &jb);
+        let jb = body.bind("jb", &coset_base(fac, sh, v, &fl));
         // Weights per axis; the scale is folded into the last axis.
         let mut w: Vec<Vec<String>> = Vec::new();
         let mut dw: Vec<Vec<String>> = Vec::new();
@@ -215,18 +226,9 @@ pub(crate) fn emit_factored_bounds(fac: &Factorisation, sh: &Shapes, name: &str)
     let _ = writeln!(out, "    var lo = 3.4e38;\n    var hi = -3.4e38;");
     let digit = |var: &str, i: usize| format!("(({var} / {}) % {})", strides[i], orders[i]);
     for v in &fac.cosets {
-        let add: Vec<Q> = (0..s).map(|i| Q::frac(orders[i] as i64, 2) - Q::frac(v[i], steps[i])).collect();
-        let mul: Vec<String> = steps.iter().map(|&a| lit(&Q::frac(1, a))).collect();
         let _ = writeln!(out, "    {{");
-        let _ = writeln!(
-            out,
-            "        let jb = {}(floor(p * {} + {})) * {} + {};",
-            sh.veci,
-            sh.fvec(&mul),
-            sh.fvec(&add.iter().map(lit).collect::<Vec<_>>()),
-            sh.ivec(&steps),
-            sh.ivec(v)
-        );
+        let fl = format!("floor({})", coset_coordinate(fac, sh, v, "p"));
+        let _ = writeln!(out, "        let jb = {};", coset_base(fac, sh, v, &fl));
         let kk: Vec<String> = (0..s).map(|i| digit("k", i)).collect();
         let _ = writeln!(out, "        for (var k = 0; k < {total}; k++) {{");
         let _ = writeln!(
@@ -254,13 +256,7 @@ pub(crate) fn emit_factored_linear_body(fac: &Factorisation, sh: &Shapes, name: 
     let s = sh.s;
     let mut body = Body::new();
     let v = &fac.cosets[0];
-    let add: Vec<Q> = (0..s).map(|i| Q::frac(fac.axes[i].order as i64, 2) - Q::int(v[i])).collect();
-    let sx = if add.iter().all(|a| *a == add[0]) {
-        format!("p + {}", lit(&add[0]))
-    } else {
-        format!("p + {}", sh.fvec(&add.iter().map(lit).collect::<Vec<_>>()))
-    };
-    let sv = body.bind("s", &sx);
+    let sv = body.bind("s", &coset_coordinate(fac, sh, v, "p"));
     let fl = body.bind("fl", &format!("floor({sv})"));
     let t = body.bind("t", &format!("{sv} - {fl}"));
     // Texture coordinates: (position + 0.5) / size, with the 0.5 folded in.

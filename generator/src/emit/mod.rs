@@ -28,6 +28,7 @@ use naive::naive_tables;
 pub use writer::{count_ops, lit};
 use writer::{Shapes, AXES};
 
+use crate::derive::factor::Factorisation;
 use crate::derive::Derivation;
 use crate::emit::plan::{Locate, Plan};
 use crate::error::{Error, Result};
@@ -243,8 +244,9 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
     let sh = Shapes::new(s);
     let name = &d.filter.name;
     let naive = opts.variant == Variant::Naive;
+    let fac = d.factorisation();
     let mut requested = opts.form.unwrap_or(d.filter.form);
-    if opts.fetch == FetchMode::Linear && requested == EvalForm::Auto && d.factorisation().is_some() {
+    if opts.fetch == FetchMode::Linear && requested == EvalForm::Auto && fac.is_some() {
         // Linear fetches are a property of the factored form.
         requested = EvalForm::Factored;
     }
@@ -260,7 +262,7 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
         };
         (EvalForm::Dense, vec![cost], e, g)
     } else {
-        choose_form(d, &plan, &sh, name, requested)?
+        choose_form(d, fac.as_ref(), &plan, &sh, name, requested)?
     };
     let (eval_body, fetches_linear) =
         if opts.fetch == FetchMode::Linear {
@@ -284,6 +286,11 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
         } else {
             (eval_body, None)
         };
+    // The factored form adds one constant offset per fetch after each coset's base.
+    let vector_adds = match (&fac, form) {
+        (Some(f), EvalForm::Factored) => fetches_linear.map_or(f.fetches() - f.cosets.len(), |_| 0),
+        _ => plan.vector_adds,
+    };
     let fetches = match form {
         EvalForm::Factored => forms.iter().find(|f| f.form == form).map(|f| f.fetches).unwrap_or(0),
         _ => plan.fetches(),
@@ -296,7 +303,7 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
     if opts.kernels {
         // Tensor-product filters bound each cube through the factorisation
         // (a contraction, not dense weights of every sample).
-        match d.factorisation() {
+        match &fac {
             Some(fac) if !naive && fac.knots_on_cube_faces() => {
                 helper_text.push_str(&factored::emit_factored_bounds(&fac, &sh, name))
             }
@@ -358,8 +365,8 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
         form => form.name(),
         form_costs => forms.iter().map(|f| format!("{} {}/{}", f.form.name(), f.ops_eval, f.ops_eval_grad)).collect::<Vec<_>>().join(", "),
         bounds => opts.bounds.name(),
-        vector_adds => plan.vector_adds,
-        matvec_adds => plan.matvec_adds,
+        vector_adds => vector_adds,
+        matvec_adds => if form == EvalForm::Factored { vector_adds } else { plan.matvec_adds },
         group => opts.group,
         binding => opts.binding,
         out_binding => out_binding,
@@ -391,8 +398,8 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
         locate: format!("{:?}", plan.locate),
         candidates: plan.candidates.len(),
         fetches_per_eval: fetches_linear.unwrap_or(fetches),
-        vector_adds: plan.vector_adds,
-        matvec_adds: plan.matvec_adds,
+        vector_adds,
+        matvec_adds: if form == EvalForm::Factored { vector_adds } else { plan.matvec_adds },
         ops_eval: count_ops(&eval_body),
         ops_eval_grad: count_ops(&grad_body),
         form,
@@ -412,12 +419,12 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
 /// power, bb, dense. Returns (form, every form's cost, eval body, grad body).
 fn choose_form(
     d: &Derivation,
+    fac: Option<&Factorisation>,
     plan: &Plan,
     sh: &Shapes,
     name: &str,
     requested: EvalForm,
 ) -> Result<(EvalForm, Vec<FormCost>, String, String)> {
-    let fac = d.factorisation();
     if requested == EvalForm::Factored && fac.is_none() {
         return Err(Error::Spec {
             origin: format!("filter {name}"),
@@ -428,7 +435,7 @@ fn choose_form(
     }
     let mut bodies: Vec<(EvalForm, usize, String, String)> = Vec::new();
     let wanted = |f: EvalForm| requested == EvalForm::Auto || requested == f;
-    if let Some(fac) = &fac {
+    if let Some(fac) = fac {
         if wanted(EvalForm::Factored) {
             let e = factored::emit_factored_body(fac, sh, name, false);
             let g = factored::emit_factored_body(fac, sh, name, true);
