@@ -38,6 +38,10 @@ pub enum Error {
     StencilCap { size: usize, cap: usize },
     #[error("the knot planes cut the unit cubes into {cells} cells, over the cap of {cap}: use shorter or fewer directions, or raise `caps.max_cells` in the spec")]
     CellCap { cells: usize, cap: usize },
+    #[error("{} {polynomials} polynomials ({pieces} reference pieces x {} {stencil} stencil samples), over the cap of {cap}: use shorter or fewer directions (or more symmetric ones), or raise `caps.max_polynomials` in the spec (`Caps` in the Builder)", if *exact { "the derivation needs" } else { "the derivation would need about" }, if *exact { "up to" } else { "about" })]
+    PolynomialCap { polynomials: usize, pieces: usize, stencil: usize, exact: bool, cap: usize },
+    #[error("the shader would hold {polynomials} polynomials ({pieces} reference pieces), over the emission cap of {cap} (about 3 KB of WGSL and 2 ms of generation each): use shorter or fewer directions (or more symmetric ones), or raise `caps.max_emitted_polynomials` in the spec (`Caps` in the Builder)")]
+    EmitCap { polynomials: usize, pieces: usize, cap: usize },
     #[error(
         "no quasi-interpolation prefilter found within {shells} shells: raise the shell limit or check the filter"
     )]

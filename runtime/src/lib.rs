@@ -5,6 +5,7 @@
 pub mod bench;
 pub mod gpu;
 pub mod prefilter;
+pub mod progress;
 pub mod render;
 pub mod scene;
 pub mod upload;

@@ -7,6 +7,7 @@ use boxforge::derive::Derivation;
 use boxforge::emit::{Layout, Variant};
 use boxforge::spec;
 use boxforge_runtime::gpu::Gpu;
+use boxforge_runtime::progress;
 use boxforge_runtime::render::{self, RenderOptions};
 use boxforge_runtime::scene::{self, Conversion};
 
@@ -166,6 +167,13 @@ enum Command {
         /// Skip the quality section.
         #[arg(long)]
         no_quality: bool,
+        /// Time the derivation of a fixed, seeded set of random specs instead
+        /// (no GPU): with --markdown, replaces only its section of the file.
+        #[arg(long)]
+        derive: bool,
+        /// How many seeded random specs --derive uses (default 105).
+        #[arg(long, requires = "derive")]
+        specs: Option<usize>,
         /// Skip the hand-written references (generated vs hand-written).
         #[arg(long)]
         no_references: bool,
@@ -293,6 +301,8 @@ fn run(cli: Cli) -> Result<(), Failure> {
             no_naive,
             no_quality,
             no_references,
+            derive,
+            specs,
             runs,
             json,
             markdown,
@@ -302,6 +312,26 @@ fn run(cli: Cli) -> Result<(), Failure> {
             adapter,
         } => {
             use boxforge_runtime::bench;
+            if derive {
+                let count = specs.unwrap_or(105);
+                let started = std::time::Instant::now();
+                let report = bench::derive::run(count);
+                eprintln!("{} specs in {:.1} s", report.rows.len(), started.elapsed().as_secs_f64());
+                let mut cmd = format!("boxforge bench --derive --specs {count}");
+                if let Some(m) = &markdown {
+                    cmd.push_str(&format!(" --markdown {}", m.display()));
+                    let old = std::fs::read_to_string(m).unwrap_or_default();
+                    let text = bench::derive::splice(&old, &bench::derive::markdown(&report, &cmd));
+                    boxforge::build::output::write_atomic(m, text.as_bytes())?;
+                    eprintln!("wrote the derivation section of {}", m.display());
+                }
+                if json {
+                    println!("{}", serde_json::to_string(&report).unwrap());
+                } else if markdown.is_none() {
+                    println!("{}", bench::derive::markdown(&report, &cmd));
+                }
+                return Ok(());
+            }
             let mut o = if smoke { bench::BenchOptions::smoke() } else { bench::BenchOptions::full() };
             if !filters.is_empty() {
                 o.filters = filters;
@@ -331,7 +361,13 @@ fn run(cli: Cli) -> Result<(), Failure> {
             }
             if let Some(m) = &markdown {
                 cmd.push_str(&format!(" --markdown {}", m.display()));
-                boxforge::build::output::write_atomic(m, bench::markdown(&report, &cmd).as_bytes())?;
+                // Keep the derivation section (`bench --derive`) of an existing file.
+                let old = std::fs::read_to_string(m).unwrap_or_default();
+                let mut text = bench::markdown(&report, &cmd);
+                if let Some(section) = bench::derive::existing_section(&old) {
+                    text = format!("{}\n\n{section}\n", text.trim_end());
+                }
+                boxforge::build::output::write_atomic(m, text.as_bytes())?;
                 eprintln!("wrote {}", m.display());
             }
             if json {
@@ -406,9 +442,9 @@ fn run(cli: Cli) -> Result<(), Failure> {
             }
             let command = format!("boxforge generate {what} -o {}", out.display());
             let started = std::time::Instant::now();
-            let derivations = derive_all(&resolved, |d| d)?;
+            let derivations = derive_all(&resolved, |d, t| (d, t))?;
             let mut stale = Vec::new();
-            for d in &derivations {
+            for (d, seconds) in &derivations {
                 let files = boxforge::build::output::generated_files(d, &command, &layouts, &variants)?;
                 if check {
                     for (name, text) in &files {
@@ -419,7 +455,7 @@ fn run(cli: Cli) -> Result<(), Failure> {
                 } else {
                     let written = boxforge::build::output::write_files(&out, &files)?;
                     let list: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
-                    eprintln!("{:<16} {}", d.filter.name, list.join(", "));
+                    eprintln!("{:<16} derived in {seconds:.2} s: {}", d.filter.name, list.join(", "));
                 }
             }
             if check && !stale.is_empty() {
@@ -434,7 +470,11 @@ fn run(cli: Cli) -> Result<(), Failure> {
         Command::Inspect { filters, all, json } => {
             let names = filter_names(filters, all)?;
             let resolved = names.iter().map(|n| spec::resolve(n)).collect::<Result<Vec<_>, _>>()?;
-            let reports = derive_all(&resolved, |d| Report::new(&d))?;
+            let reports = derive_all(&resolved, |d, seconds| {
+                let mut r = Report::new(&d);
+                r.derivation_seconds = Some(seconds);
+                r
+            })?;
             if json {
                 if reports.len() == 1 && !all {
                     println!("{}", reports[0].to_json());
@@ -546,23 +586,19 @@ fn filter_names(filters: Vec<String>, all: bool) -> Result<Vec<String>, Failure>
     }
 }
 
-/// Derives filters in parallel (a worker per core), mapping each result.
-fn derive_all<T: Send>(filters: &[boxforge::Filter], map: impl Fn(Derivation) -> T + Sync) -> Result<Vec<T>, Failure> {
-    let threads = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1).max(1);
-    let next = std::sync::atomic::AtomicUsize::new(0);
-    let results: Vec<std::sync::Mutex<Option<Result<T, Failure>>>> =
-        filters.iter().map(|_| std::sync::Mutex::new(None)).collect();
-    std::thread::scope(|scope| {
-        for _ in 0..threads.min(filters.len()) {
-            scope.spawn(|| loop {
-                let i = next.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
-                if i >= filters.len() {
-                    break;
-                }
-                let r = Derivation::new(&filters[i]).map(&map).map_err(Failure::from);
-                *results[i].lock().unwrap() = Some(r);
-            });
-        }
-    });
-    results.into_iter().map(|m| m.into_inner().unwrap().expect("every filter derived")).collect()
+/// Derives filters one after another, each one's reference pieces in
+/// parallel on every core, with a progress bar on a terminal for
+/// derivations of more than a few thousand polynomials; maps each result
+/// with the seconds it took.
+fn derive_all<T>(filters: &[boxforge::Filter], map: impl Fn(Derivation, f64) -> T) -> Result<Vec<T>, Failure> {
+    let mut out = Vec::with_capacity(filters.len());
+    for f in filters {
+        let started = std::time::Instant::now();
+        let d = Derivation::new(f)?;
+        let bar = progress::derivation_bar(&d);
+        d.derive_all_forms(&|done, _| bar.set_position(done as u64));
+        bar.finish_and_clear();
+        out.push(map(d, started.elapsed().as_secs_f64()));
+    }
+    Ok(out)
 }

@@ -30,7 +30,7 @@ use crate::build::output::write_atomic;
 use crate::derive::Derivation;
 use crate::emit::{emit, Bounds, EmitOptions, EmitStats, EvalForm, FetchMode, Layout, Variant};
 use crate::error::{Error, Result};
-use crate::spec::{catalog, Filter};
+use crate::spec::{catalog, Caps, Filter};
 use crate::validate::{check_branch_free, validate_wgsl};
 use std::path::{Path, PathBuf};
 
@@ -71,6 +71,7 @@ pub struct Builder {
     form: Option<EvalForm>,
     bounds: Bounds,
     fetch: FetchMode,
+    caps: Option<Caps>,
     emit_rerun_if_changed: bool,
 }
 
@@ -106,6 +107,7 @@ impl Builder {
             form: None,
             bounds: Bounds::Clamp,
             fetch: FetchMode::Exact,
+            caps: None,
             emit_rerun_if_changed: std::env::var_os("OUT_DIR").is_some(),
         }
     }
@@ -192,6 +194,14 @@ impl Builder {
         self
     }
 
+    /// Limits for every filter, replacing each spec's `[caps]` (default:
+    /// the spec's caps, else [`Caps::default`]). Raise them for a filter the
+    /// default caps refuse; the refusal names the cap and its estimate.
+    pub fn caps(mut self, caps: Caps) -> Self {
+        self.caps = Some(caps);
+        self
+    }
+
     /// Derives, emits and validates every filter, then writes the modules.
     ///
     /// Nothing is written unless every module validates, so a failing build
@@ -223,6 +233,13 @@ impl Builder {
         for p in &self.spec_files {
             filters.push(Filter::from_file(p)?);
         }
+        if let Some(caps) = &self.caps {
+            for f in &mut filters {
+                let form = f.form;
+                *f = Filter::new(&f.name, &f.description, f.lattice.clone(), f.directions.clone(), caps.clone())?;
+                f.form = form;
+            }
+        }
         for (i, f) in filters.iter().enumerate() {
             if filters[..i].iter().any(|g| g.name == f.name) {
                 return Err(Error::Spec {
@@ -246,8 +263,21 @@ impl Builder {
         };
         let mut modules = Vec::new();
         for f in &filters {
+            let started = std::time::Instant::now();
             let d = Derivation::new(f)?;
+            d.derive_all_forms(&|_, _| {});
+            let derived = started.elapsed().as_secs_f64();
             let e = emit(&d, &opts)?;
+            let total = started.elapsed().as_secs_f64();
+            if self.emit_rerun_if_changed && total > SLOW_BUILD_SECONDS {
+                // Cargo shows these lines from build scripts; a slow build should say why.
+                println!(
+                    "cargo:warning=boxforge: '{}' took {total:.1} s ({derived:.1} s to derive {} polynomials, the rest to emit); \
+                     fewer or shorter directions build faster",
+                    f.name,
+                    d.polynomials()
+                );
+            }
             let path = out_dir.join(&e.file_name);
             check_module(&f.name, &e.source, &path, self.variant)?;
             modules.push((path, e));
@@ -264,6 +294,9 @@ impl Builder {
         Ok(generated)
     }
 }
+
+/// A build-time filter slower than this prints a `cargo:warning`.
+pub const SLOW_BUILD_SECONDS: f64 = 3.0;
 
 /// naga validation for every module; the branch-free proof of `<f>_eval`
 /// and `<f>_eval_grad` for the fast variant.
@@ -298,6 +331,23 @@ mod tests {
         let r = validate_wgsl(&src, &path.display().to_string());
         assert!(r.valid, "{}: {:?}", path.display(), r.error);
         check_branch_free(&r, &[&format!("{name}_eval"), &format!("{name}_eval_grad")]).unwrap();
+    }
+
+    #[test]
+    fn builder_caps_replace_the_specs_caps() {
+        let dir = temp_dir("caps");
+        let tight = Caps { max_emitted_polynomials: 10, ..Caps::default() };
+        let e = Builder::new().filter("bcc7").caps(tight).out_dir(&dir).generate().err().expect("refused");
+        assert!(matches!(e, Error::EmitCap { polynomials: 30, cap: 10, .. }), "{e}");
+        assert!(!dir.join("bcc7.embedded.wgsl").exists(), "nothing written on a refusal");
+        let degree = Caps { max_degree: 2, ..Caps::default() };
+        assert!(matches!(
+            Builder::new().filter("bcc7").caps(degree).out_dir(&dir).generate(),
+            Err(Error::DegreeCap { degree: 4, cap: 2 })
+        ));
+        Builder::new().filter("bcc7").caps(Caps::default()).out_dir(&dir).generate().unwrap();
+        assert!(dir.join("bcc7.embedded.wgsl").exists());
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]

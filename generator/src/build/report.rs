@@ -40,6 +40,26 @@ pub struct Report {
     pub shaders: Vec<crate::emit::EmitStats>,
     /// Hardware-filtered fetches, where the filter allows them.
     pub linear_fetch: Option<LinearFetchReport>,
+    /// The size of the derivation: the estimate it was admitted on, and the
+    /// polynomials it derived.
+    pub work: WorkReport,
+    /// Seconds the derivation took (filled by `inspect`; left out of the
+    /// files `generate` writes, which must be the same bytes every run).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub derivation_seconds: Option<f64>,
+}
+
+/// Reports list every piece's BB and power coefficients up to this many
+/// polynomials; beyond it the JSON would run to hundreds of megabytes.
+pub const DETAIL_LIMIT_POLYNOMIALS: usize = 4096;
+
+#[derive(Clone, Debug, Serialize)]
+pub struct WorkReport {
+    pub estimate: crate::derive::Estimate,
+    /// Reference pieces x their stencils, as derived.
+    pub polynomials: usize,
+    /// Whether BB and power coefficients are listed (see [`DETAIL_LIMIT_POLYNOMIALS`]).
+    pub coefficients_listed: bool,
 }
 
 /// Precision of `fetch = linear` (Sigg & Hadwiger's scheme, derived): the
@@ -151,6 +171,8 @@ impl Report {
     pub fn new(d: &Derivation) -> Report {
         let f = &d.filter;
         let arr = &d.arrangement;
+        let polynomials = d.polynomials();
+        let detailed = polynomials <= DETAIL_LIMIT_POLYNOMIALS;
         Report {
             name: f.name.clone(),
             description: f.description.clone(),
@@ -180,10 +202,7 @@ impl Report {
                     is_simplex: r.is_simplex,
                     cells_in_orbit: d.maps.iter().filter(|m| m.reference == ri).count(),
                     stencil: r.stencil.clone(),
-                    bb: d
-                        .forms(ri)
-                        .bb
-                        .as_ref()
+                    bb: (if detailed { d.forms(ri).bb.as_ref() } else { None })
                         .map(|bb| {
                             bb.indices
                                 .iter()
@@ -204,7 +223,7 @@ impl Report {
                     power: r
                         .stencil
                         .iter()
-                        .zip(&d.forms(ri).polys)
+                        .zip(if detailed { d.forms(ri).polys.as_slice() } else { &[] })
                         .map(|(k, p)| PowerPiece {
                             offset: k.clone(),
                             terms: p
@@ -235,6 +254,8 @@ impl Report {
             },
             shaders: vec![],
             linear_fetch: linear_fetch_report(d),
+            work: WorkReport { estimate: d.estimate, polynomials, coefficients_listed: detailed },
+            derivation_seconds: None,
             cells: arr
                 .cells
                 .iter()
@@ -297,6 +318,17 @@ impl Report {
             ("symmetry order", self.symmetry_order.to_string()),
             ("reference pieces", self.reference_pieces.len().to_string()),
             ("max stencil", self.max_stencil_size.to_string()),
+            (
+                "polynomials (reference pieces x stencil)",
+                format!(
+                    "{} (estimated {} before cutting: {} reference pieces x {} mean stencil){}",
+                    self.work.polynomials,
+                    self.work.estimate.polynomials,
+                    self.work.estimate.reference_pieces,
+                    self.work.estimate.stencil,
+                    if self.work.coefficients_listed { "" } else { "; coefficients not listed (over the report limit)" }
+                ),
+            ),
         ];
         for (k, val) in rows {
             let _ = writeln!(s, "| {k} | {val} |");
@@ -442,7 +474,14 @@ impl Report {
         let _ = writeln!(s, "  symmetry order    {}", self.symmetry_order);
         let _ =
             writeln!(s, "  reference pieces  {} (max stencil {})", self.reference_pieces.len(), self.max_stencil_size);
-        for (i, r) in self.reference_pieces.iter().enumerate() {
+        let _ = writeln!(
+            s,
+            "  polynomials       {} (estimated {} before cutting){}",
+            self.work.polynomials,
+            self.work.estimate.polynomials,
+            self.derivation_seconds.map(|t| format!(", derived in {t:.2} s")).unwrap_or_default()
+        );
+        for (i, r) in self.reference_pieces.iter().enumerate().take(64) {
             let _ = writeln!(
                 s,
                 "    #{i}: {} with {} vertices in cube {}, orbit of {} cells, stencil {}, {}",
@@ -454,6 +493,9 @@ impl Report {
                 if r.is_simplex { format!("{} BB coefficients", r.bb.len()) } else { "power form".to_string() }
             );
             let _ = writeln!(s, "        vertices: {}", r.vertices.iter().map(v).collect::<Vec<_>>().join(" "));
+        }
+        if self.reference_pieces.len() > 64 {
+            let _ = writeln!(s, "    ({} more in the JSON report)", self.reference_pieces.len() - 64);
         }
         let _ = writeln!(s, "  prefilter         {} taps in {} shells:", self.prefilter.len(), self.prefilter_shells);
         for w in &self.prefilter {

@@ -78,31 +78,15 @@ pub struct Arrangement {
 
 impl Arrangement {
     pub fn new(facts: &SplineFacts, lattice: &Lattice) -> Arrangement {
-        let s = facts.dim;
-        let families: Vec<KnotFamily> =
-            facts.normals.iter().map(|n| KnotFamily::new(n, lattice, &facts.center)).collect();
-        let grid_offset: QVec = (0..s)
-            .map(|i| {
-                let mut e = vec![0; s];
-                e[i] = 1;
-                match families.iter().find(|f| f.normal == e) {
-                    Some(f) => &f.offset - &f.offset.floor(),
-                    None => Q::zero(),
-                }
-            })
-            .collect();
-        let classes = lattice.classes();
+        Arrangement::from_frame(Frame::new(facts, lattice), lattice)
+    }
+
+    /// The cells of every cube class, cut from the frame's planes.
+    pub fn from_frame(frame: Frame, lattice: &Lattice) -> Arrangement {
         let mut cells = Vec::new();
-        for (ci, z) in classes.iter().enumerate() {
-            let lo: QVec = (0..s).map(|i| &grid_offset[i] + &Q::int(z[i])).collect();
-            let mut planes: Vec<(QVec, Q)> = Vec::new();
-            for f in &families {
-                let nq = to_q(&f.normal);
-                let (lo_v, hi_v) = cube_range(&f.normal, &lo);
-                for v in f.values_between(&lo_v, &hi_v) {
-                    planes.push((nq.clone(), v));
-                }
-            }
+        for ci in 0..frame.classes.len() {
+            let lo = frame.cube_lower_corner(ci);
+            let planes: Vec<(QVec, Q)> = frame.crossing_planes(ci).into_iter().map(|(n, v)| (to_q(&n), v)).collect();
             let mut parts = Vec::new();
             cut_recursively(Polytope::unit_cube(&lo), &planes, &mut parts);
             let mut class_cells: Vec<Cell> =
@@ -110,6 +94,7 @@ impl Arrangement {
             class_cells.sort_by(|a, b| a.polytope.vertices.cmp(&b.polytope.vertices));
             cells.extend(class_cells);
         }
+        let Frame { families, grid_offset, classes } = frame;
         let mut arr = Arrangement { families, grid_offset, classes, cells, pieces_per_fundamental_domain: 0 };
         arr.pieces_per_fundamental_domain = arr.count_pieces(lattice);
         arr
@@ -194,6 +179,61 @@ impl Arrangement {
             }
         }
         (0..self.cells.len()).filter(|&i| find(&mut parent, i) == i).count()
+    }
+}
+
+/// What the arrangement is built from: the knot-plane families, the grid
+/// offset and the cube classes. Cheap; [`Frame::count_cells`] counts the
+/// cells from it without cutting.
+#[derive(Clone, Debug)]
+pub struct Frame {
+    pub families: Vec<KnotFamily>,
+    pub grid_offset: QVec,
+    pub classes: Vec<IVec>,
+}
+
+impl Frame {
+    pub fn new(facts: &SplineFacts, lattice: &Lattice) -> Frame {
+        let s = facts.dim;
+        let families: Vec<KnotFamily> =
+            facts.normals.iter().map(|n| KnotFamily::new(n, lattice, &facts.center)).collect();
+        let grid_offset: QVec = (0..s)
+            .map(|i| {
+                let mut e = vec![0; s];
+                e[i] = 1;
+                match families.iter().find(|f| f.normal == e) {
+                    Some(f) => &f.offset - &f.offset.floor(),
+                    None => Q::zero(),
+                }
+            })
+            .collect();
+        Frame { families, grid_offset, classes: lattice.classes() }
+    }
+
+    /// o + z for the representative z of class `ci`.
+    pub fn cube_lower_corner(&self, ci: usize) -> QVec {
+        self.grid_offset.iter().zip(&self.classes[ci]).map(|(o, z)| o + &Q::int(*z)).collect()
+    }
+
+    /// The knot planes n . x = v that cross the open cube of class `ci`.
+    pub fn crossing_planes(&self, ci: usize) -> Vec<(IVec, Q)> {
+        let lo = self.cube_lower_corner(ci);
+        let mut planes = Vec::new();
+        for f in &self.families {
+            let (lo_v, hi_v) = cube_range(&f.normal, &lo);
+            for v in f.values_between(&lo_v, &hi_v) {
+                planes.push((f.normal.clone(), v));
+            }
+        }
+        planes
+    }
+
+    /// The number of cells of every class, exactly, without cutting (see
+    /// [`crate::derive::cell_count`]).
+    pub fn count_cells(&self) -> usize {
+        (0..self.classes.len())
+            .map(|ci| crate::derive::cell_count::count_regions(&self.crossing_planes(ci), &self.cube_lower_corner(ci)))
+            .sum()
     }
 }
 

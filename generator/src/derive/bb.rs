@@ -4,6 +4,7 @@
 use crate::math::exact::{factorial, Q};
 use crate::math::linalg::{solve, QVec};
 use crate::math::poly::{Monomials, Poly};
+use crate::math::scaled::{mul_add, ratio, Scaled};
 
 #[derive(Clone, Debug)]
 pub struct BbForm {
@@ -49,18 +50,13 @@ impl BbForm {
         let dfact = factorial(degree as u32);
         let scale: Vec<Q> =
             indices.iter().map(|a| a.iter().fold(Q::one(), |acc, &k| acc * factorial(k)) / &dfact).collect();
-        let mut weights = vec![vec![Q::zero(); polys.len()]; indices.len()];
-        for (k, p) in polys.iter().enumerate() {
-            let mut h = Poly::zero(s + 1, degree);
-            for (c, img) in p.coeffs.iter().zip(&images) {
-                if !c.is_zero() {
-                    h.add_scaled(img, c);
-                }
-            }
-            for (a, &pos) in idx_pos.iter().enumerate() {
-                weights[a][k] = &h.coeffs[pos] * &scale[a];
-            }
-        }
+        // weights[a][k] = sum_m conversion[a][m] * coefficient m of poly k.
+        let conversion: Vec<Vec<Q>> = idx_pos
+            .iter()
+            .zip(&scale)
+            .map(|(&pos, sc)| images.iter().map(|img| &img.coeffs[pos] * sc).collect())
+            .collect();
+        let weights = convert_integer(&conversion, polys).unwrap_or_else(|| convert_rational(&conversion, polys));
         BbForm { degree, vertices: vertices.to_vec(), indices, weights }
     }
 
@@ -101,4 +97,45 @@ impl BbForm {
             })
             .sum()
     }
+}
+
+/// `conversion * coefficients` for every polynomial, in rationals.
+fn convert_rational(conversion: &[Vec<Q>], polys: &[Poly]) -> Vec<Vec<Q>> {
+    conversion
+        .iter()
+        .map(|row| {
+            polys
+                .iter()
+                .map(|p| {
+                    row.iter()
+                        .zip(&p.coeffs)
+                        .filter(|(a, b)| !a.is_zero() && !b.is_zero())
+                        .fold(Q::zero(), |acc, (a, b)| acc + a * b)
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// The same product over common denominators in checked i128 (the inner
+/// loop of every simplicial piece); `None` on overflow.
+fn convert_integer(conversion: &[Vec<Q>], polys: &[Poly]) -> Option<Vec<Vec<Q>>> {
+    let flat: Vec<Q> = conversion.iter().flatten().cloned().collect();
+    let m = Scaled::from_q(&flat)?;
+    let width = conversion.first().map_or(0, |r| r.len());
+    let mut weights = vec![Vec::with_capacity(polys.len()); conversion.len()];
+    for p in polys {
+        let c = Scaled::from_q(&p.coeffs)?;
+        let denominator = m.denominator.checked_mul(c.denominator)?;
+        for (a, row) in m.numerators.chunks(width.max(1)).enumerate() {
+            let mut acc: i128 = 0;
+            for (x, y) in row.iter().zip(&c.numerators) {
+                if *x != 0 && *y != 0 {
+                    acc = mul_add(acc, *x, *y)?;
+                }
+            }
+            weights[a].push(if acc == 0 { Q::zero() } else { ratio(acc, denominator) });
+        }
+    }
+    Some(weights)
 }

@@ -4,15 +4,17 @@
 
 pub mod arrangement;
 pub mod bb;
+pub mod cell_count;
 pub mod f64_tables;
 pub mod factor;
+pub mod piece_tables;
 pub mod pieces;
 pub mod prefilter;
 pub mod spline;
 pub mod stencil;
 pub mod symmetry;
 
-use crate::derive::arrangement::Arrangement;
+use crate::derive::arrangement::{Arrangement, Frame};
 use crate::derive::bb::BbForm;
 use crate::derive::pieces::PpForm;
 use crate::derive::prefilter::{derive_prefilter, Prefilter};
@@ -24,9 +26,32 @@ use crate::math::linalg::{mat_vec_i, mat_vec_q, sub_i, sub_q, to_q, IVec, QVec};
 use crate::math::poly::Poly;
 use crate::spec::lattice::Lattice;
 use crate::spec::Filter;
+use rayon::prelude::*;
 use std::collections::HashMap;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::OnceLock;
 pub use stencil::stencil_points;
+
+/// The size of a derivation, known before any polynomial is derived.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub struct Estimate {
+    /// Evaluation cells per fundamental domain (exact).
+    pub cells: usize,
+    /// Reference pieces: at least cells / |symmetry group|.
+    pub reference_pieces: usize,
+    /// Mean stencil size: support volume / det G, rounded up.
+    pub stencil: usize,
+    /// Polynomials to derive (and emit): reference pieces x stencil.
+    pub polynomials: usize,
+}
+
+impl Estimate {
+    fn new(cells: usize, group: usize, facts: &SplineFacts, lattice: &Lattice) -> Estimate {
+        let reference_pieces = cells.div_ceil(group.max(1));
+        let stencil = (facts.support_volume as usize).div_ceil(lattice.det().max(1) as usize);
+        Estimate { cells, reference_pieces, stencil, polynomials: reference_pieces.saturating_mul(stencil) }
+    }
+}
 
 /// g(x) = R x + t maps a cell onto its reference cell.
 #[derive(Clone, Debug)]
@@ -90,6 +115,8 @@ pub struct Derivation {
     pub maps: Vec<CellMap>,
     pub references: Vec<ReferencePiece>,
     pub prefilter: Prefilter,
+    /// The size estimate the derivation was admitted on.
+    pub estimate: Estimate,
     pub(crate) f64_cache: std::sync::OnceLock<f64_tables::F64Tables>,
 }
 
@@ -102,32 +129,55 @@ impl Derivation {
         if estimate > filter.caps.max_stencil {
             return Err(Error::StencilCap { size: estimate, cap: filter.caps.max_stencil });
         }
-        let arrangement = Arrangement::new(&facts, lattice);
-        if arrangement.cells.len() > filter.caps.max_cells {
-            return Err(Error::CellCap { cells: arrangement.cells.len(), cap: filter.caps.max_cells });
-        }
-        let o = &arrangement.grid_offset;
+        // Know the size of the answer before paying for it: the cells are
+        // counted exactly without cutting, the reference pieces are at least
+        // cells / |group|, and a stencil holds about support volume / det G
+        // samples (the exact mean over all positions).
+        let frame = Frame::new(&facts, lattice);
+        let o = frame.grid_offset.clone();
         let group: Vec<SignedPerm> = point_group(filter)
             .into_iter()
             .filter(|r| {
                 let rq: Vec<QVec> = r.iter().map(|row| to_q(row)).collect();
-                sub_q(&mat_vec_q(&rq, o), o).iter().all(|x| x.is_integer())
+                sub_q(&mat_vec_q(&rq, &o), &o).iter().all(|x| x.is_integer())
             })
             .collect();
+        let cells = frame.count_cells();
+        if cells > filter.caps.max_cells {
+            return Err(Error::CellCap { cells, cap: filter.caps.max_cells });
+        }
+        let estimate = Estimate::new(cells, group.len(), &facts, lattice);
+        if estimate.polynomials > filter.caps.max_polynomials {
+            return Err(Error::PolynomialCap {
+                polynomials: estimate.polynomials,
+                pieces: estimate.reference_pieces,
+                stencil: estimate.stencil,
+                exact: false,
+                cap: filter.caps.max_polynomials,
+            });
+        }
+        let arrangement = Arrangement::from_frame(frame, lattice);
+        debug_assert_eq!(arrangement.cells.len(), cells, "counted cells = cut cells");
         let pp = PpForm::new(&facts, lattice.det());
         let maps = cell_maps(&arrangement, lattice, &group);
-        let mut references = Vec::new();
-        let mut ref_of_cell: HashMap<usize, usize> = HashMap::new();
-        for (i, m) in maps.iter().enumerate() {
-            if m.reference == i {
-                ref_of_cell.insert(i, references.len());
-                references.push(reference_piece(&arrangement, &facts, lattice, i));
-            }
-        }
+        let reference_cells: Vec<usize> = maps.iter().enumerate().filter(|(i, m)| m.reference == *i).map(|(i, _)| i).collect();
+        let ref_of_cell: HashMap<usize, usize> = reference_cells.iter().enumerate().map(|(r, &c)| (c, r)).collect();
+        let references: Vec<ReferencePiece> =
+            reference_cells.par_iter().map(|&i| reference_piece(&arrangement, &facts, lattice, i)).collect();
         // Every cell of an orbit has its reference's stencil size.
         let max_stencil = references.iter().map(|r| r.stencil.len()).max().unwrap_or(0);
         if max_stencil > filter.caps.max_stencil {
             return Err(Error::StencilCap { size: max_stencil, cap: filter.caps.max_stencil });
+        }
+        let polynomials: usize = references.iter().map(|r| r.stencil.len()).sum();
+        if polynomials > filter.caps.max_polynomials {
+            return Err(Error::PolynomialCap {
+                polynomials,
+                pieces: references.len(),
+                stencil: max_stencil,
+                exact: true,
+                cap: filter.caps.max_polynomials,
+            });
         }
         let maps = maps.into_iter().map(|m| CellMap { reference: ref_of_cell[&m.reference], ..m }).collect();
         let prefilter = derive_prefilter(filter, &group, facts.approximation_order)?;
@@ -140,8 +190,26 @@ impl Derivation {
             maps,
             references,
             prefilter,
+            estimate,
             f64_cache: Default::default(),
         })
+    }
+
+    /// Polynomials to derive and emit: the stencil sizes of all reference pieces.
+    pub fn polynomials(&self) -> usize {
+        self.references.iter().map(|r| r.stencil.len()).sum()
+    }
+
+    /// Derives the forms of every reference piece now, in parallel on the
+    /// machine's cores (they are otherwise derived lazily on first use),
+    /// calling `progress(done, total)` as pieces finish.
+    pub fn derive_all_forms(&self, progress: &(dyn Fn(usize, usize) + Sync)) {
+        let done = AtomicUsize::new(0);
+        let total = self.references.len();
+        (0..total).into_par_iter().for_each(|ri| {
+            self.forms(ri);
+            progress(done.fetch_add(1, Ordering::Relaxed) + 1, total);
+        });
     }
 
     /// The polynomial (and BB) forms of reference piece `ri`, derived once.
@@ -206,9 +274,8 @@ fn cell_maps(arr: &Arrangement, lattice: &Lattice, group: &[SignedPerm]) -> Vec<
         arr.cells.iter().enumerate().map(|(i, c)| ((c.class, c.polytope.vertices.clone()), i)).collect();
     let o = &arr.grid_offset;
     arr.cells
-        .iter()
-        .enumerate()
-        .map(|(_, c)| {
+        .par_iter()
+        .map(|c| {
             let z = &arr.classes[c.class];
             let mut best: Option<CellMap> = None;
             let mut best_cell = usize::MAX;

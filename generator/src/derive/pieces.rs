@@ -3,11 +3,13 @@
 //! transform prod 1/(w.xi) into cone polynomials over bases of directions;
 //! M_Xi is a signed sum of shifted truncated powers.
 
+use crate::derive::piece_tables::PieceTables;
 use crate::derive::spline::SplineFacts;
 use crate::math::exact::{binomial, factorial, Q};
 use crate::math::linalg::{inverse, mat_vec_q, rank, solve, to_q, IVec, QVec};
 use crate::math::poly::{tensor_to_poly, Poly};
 use std::collections::BTreeMap;
+use std::sync::Arc;
 
 /// c * prod_{v in V} t_v^(a_v - 1) / (a_v - 1)! / |det V| on the cone t = V^-1 y >= 0.
 #[derive(Clone, Debug)]
@@ -32,6 +34,9 @@ pub struct PpForm {
     pub center: QVec,
     /// |det G|.
     pub scale: Q,
+    /// Integer tables for the fast path of [`PpForm::local_piece`]; `None`
+    /// when they do not fit `i128` (the rational path is used then).
+    pub(crate) tables: Option<Arc<PieceTables>>,
 }
 
 impl PpForm {
@@ -59,14 +64,17 @@ impl PpForm {
         }
         let center =
             (0..s).map(|i| Q::frac(dirs.iter().zip(&mult).map(|(d, &m)| d[i] * m as i64).sum::<i64>(), 2)).collect();
-        PpForm {
+        let mut pp = PpForm {
             dim: s,
             degree: facts.degree,
             terms,
             shifts: shifts.into_iter().collect(),
             center,
             scale: Q::int(lattice_det),
-        }
+            tables: None,
+        };
+        pp.tables = PieceTables::new(&pp);
+        pp
     }
 
     /// phi at a point off the knot planes (exact).
@@ -94,10 +102,27 @@ impl PpForm {
     /// in local coordinates u = x - origin.
     pub fn local_piece(&self, origin: &[Q], interior: &[Q], j: &[i64]) -> Poly {
         let s = self.dim;
-        let mut out = Poly::zero(s, self.degree);
         // y = x - j + c = u + (origin - j + c)
         let base: QVec = (0..s).map(|i| &(&origin[i] - &Q::int(j[i])) + &self.center[i]).collect();
         let py: QVec = (0..s).map(|i| &(&interior[i] - &Q::int(j[i])) + &self.center[i]).collect();
+        if let Some(p) = self.tables.as_ref().and_then(|t| t.piece(&base, &py, &self.scale)) {
+            return p;
+        }
+        self.rational_piece(&base, &py)
+    }
+
+    /// [`PpForm::local_piece`] entirely in rationals (the fallback when the
+    /// integer tables overflow, and the reference they are tested against).
+    pub fn local_piece_rational(&self, origin: &[Q], interior: &[Q], j: &[i64]) -> Poly {
+        let s = self.dim;
+        let base: QVec = (0..s).map(|i| &(&origin[i] - &Q::int(j[i])) + &self.center[i]).collect();
+        let py: QVec = (0..s).map(|i| &(&interior[i] - &Q::int(j[i])) + &self.center[i]).collect();
+        self.rational_piece(&base, &py)
+    }
+
+    fn rational_piece(&self, base: &[Q], py: &[Q]) -> Poly {
+        let s = self.dim;
+        let mut out = Poly::zero(s, self.degree);
         for term in &self.terms {
             let dims: Vec<usize> = term.powers.iter().map(|&p| p as usize + 1).collect();
             let size: usize = dims.iter().product();
@@ -128,7 +153,7 @@ impl PpForm {
             if !any {
                 continue;
             }
-            let b = mat_vec_q(&term.inv, &base);
+            let b = mat_vec_q(&term.inv, base);
             let p = tensor_to_poly(&tensor, &dims, &term.inv, &b, s, self.degree);
             out.add_scaled(&p, &term.coef);
         }

@@ -58,9 +58,17 @@ impl Prefilter {
 /// Orbits are closed under the group and under x -> -x (Q is a cosine sum,
 /// so q must be even; every point group of a box spline contains -I anyway).
 /// rho <= 2 gives the delta at the origin. Errors with
-/// [`Error::Prefilter`] when [`MAX_SHELLS`] shells do not suffice.
+/// [`Error::Prefilter`] when [`shell_limit`] shells do not suffice.
 pub fn derive_prefilter(filter: &Filter, group: &[SignedPerm], rho: usize) -> Result<Prefilter> {
-    derive_prefilter_with_limit(filter, group, rho, MAX_SHELLS)
+    derive_prefilter_with_limit(filter, group, rho, shell_limit(filter.dim(), rho))
+}
+
+/// How many shells [`derive_prefilter`] tries: [`MAX_SHELLS`] beyond the
+/// number of conditions (even-order Taylor coefficients below rho), so a
+/// filter with little symmetry, whose shells are single pairs {j, -j}, still
+/// gets one unknown per condition.
+pub fn shell_limit(dim: usize, rho: usize) -> usize {
+    MAX_SHELLS + even_monomials(dim, rho.max(1) - 1).len()
 }
 
 /// [`derive_prefilter`] with an explicit shell limit.
@@ -71,36 +79,94 @@ pub fn derive_prefilter_with_limit(
     max_shells: usize,
 ) -> Result<Prefilter> {
     let dim = filter.dim();
-    // Conditions: Taylor coefficients of total degree <= max_deg.
+    // Conditions: Taylor coefficients of even total degree <= max_deg (odd
+    // ones vanish identically on both sides).
     let max_deg = rho.max(1) - 1;
     let phihat = phihat_taylor(&filter.directions, dim, max_deg);
     let shells = shells(&filter.lattice, group, max_shells);
-
-    // Monomials carrying a condition: every monomial of degree <= max_deg
-    // (odd ones are identically zero on both sides, harmless).
-    let monomials = monomials(dim, max_deg);
+    let monomials = even_monomials(dim, max_deg);
+    let rhs: Vec<Q> = monomials.iter().map(|m| if m.iter().all(|&e| e == 0) { Q::one() } else { Q::zero() }).collect();
+    // Shells are added one at a time; an echelon basis of the columns so far
+    // tells at once whether the right-hand side is in their span (the
+    // fewest shells that suffice), and only then is the system solved.
     let mut columns: Vec<Vec<Q>> = Vec::new();
+    let mut span = Span::default();
     for (k, shell) in shells.iter().enumerate() {
         let mut cos_sum = Poly::new();
         for j in shell {
             add_into(&mut cos_sum, &cos_taylor(j, max_deg));
         }
         let col = mul_trunc(&cos_sum, &phihat, max_deg);
-        columns.push(monomials.iter().map(|m| col.get(m).cloned().unwrap_or_default()).collect());
-        let rhs: Vec<Q> =
-            monomials.iter().map(|m| if m.iter().all(|&e| e == 0) { Q::one() } else { Q::zero() }).collect();
-        if let Some(x) = solve_prefix(&columns, &rhs) {
-            let mut taps: Vec<(IVec, Q)> = Vec::new();
-            for (shell, q) in shells[..=k].iter().zip(&x) {
-                if !q.is_zero() {
-                    taps.extend(shell.iter().map(|j| (j.clone(), q.clone())));
-                }
-            }
-            taps.sort_by_key(|(j, _)| (norm2(j), j.clone()));
-            return Ok(Prefilter { taps, shells: k + 1 });
+        let column: Vec<Q> = monomials.iter().map(|m| col.get(m).cloned().unwrap_or_default()).collect();
+        span.add(column.clone());
+        columns.push(column);
+        if !span.contains(&rhs) {
+            continue;
         }
+        let x = solve_prefix(&columns, &rhs).expect("the right-hand side is in the span of the columns");
+        let mut taps: Vec<(IVec, Q)> = Vec::new();
+        for (shell, q) in shells[..=k].iter().zip(&x) {
+            if !q.is_zero() {
+                taps.extend(shell.iter().map(|j| (j.clone(), q.clone())));
+            }
+        }
+        taps.sort_by_key(|(j, _)| (norm2(j), j.clone()));
+        return Ok(Prefilter { taps, shells: k + 1 });
     }
     Err(Error::Prefilter { shells: max_shells })
+}
+
+/// An echelon basis of the columns added so far: (pivot row, column with a 1 there).
+#[derive(Default)]
+struct Span {
+    basis: Vec<(usize, Vec<Q>)>,
+}
+
+impl Span {
+    fn reduce(&self, v: &[Q]) -> Vec<Q> {
+        let mut r = v.to_vec();
+        for (pivot, b) in &self.basis {
+            if r[*pivot].is_zero() {
+                continue;
+            }
+            let f = r[*pivot].clone();
+            for (x, y) in r.iter_mut().zip(b) {
+                if !y.is_zero() {
+                    *x -= &(&f * y);
+                }
+            }
+        }
+        r
+    }
+
+    fn add(&mut self, v: Vec<Q>) {
+        let r = self.reduce(&v);
+        if let Some(pivot) = r.iter().position(|x| !x.is_zero()) {
+            let inv = r[pivot].recip();
+            let b: Vec<Q> = r.iter().map(|x| x * &inv).collect();
+            // Keep the basis reduced at the new pivot so later reductions stay one pass.
+            for (_, other) in &mut self.basis {
+                if !other[pivot].is_zero() {
+                    let f = other[pivot].clone();
+                    for (x, y) in other.iter_mut().zip(&b) {
+                        if !y.is_zero() {
+                            *x -= &(&f * y);
+                        }
+                    }
+                }
+            }
+            self.basis.push((pivot, b));
+        }
+    }
+
+    fn contains(&self, v: &[Q]) -> bool {
+        self.reduce(v).iter().all(|x| x.is_zero())
+    }
+}
+
+/// Monomials of even total degree <= max_deg, in the order of [`monomials`].
+fn even_monomials(dim: usize, max_deg: usize) -> Vec<Vec<u32>> {
+    monomials(dim, max_deg).into_iter().filter(|m| degree(m) % 2 == 0).collect()
 }
 
 // ---------------------------------------------------------------------------

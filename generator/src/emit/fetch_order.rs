@@ -36,16 +36,10 @@ pub fn axis_aligned_order(points: &[IVec]) -> Vec<usize> {
         used[next] = true;
         order.push(next);
     }
-    // 2-opt on the open path (the first point stays first).
-    let total = |o: &[usize]| -> (usize, i64) {
-        let mut c = cost(&zero, &points[o[0]]);
-        for w in o.windows(2) {
-            let d = cost(&points[w[0]], &points[w[1]]);
-            c = (c.0 + d.0, c.1 + d.1);
-        }
-        c
-    };
-    let mut best = total(&order);
+    // 2-opt on the open path (the first point stays first). The cost is
+    // symmetric, so reversing order[i..=j] changes only the two edges at its
+    // ends: each candidate is judged in O(1) from that difference.
+    let edge = |a: usize, b: usize| cost(&points[a], &points[b]);
     let mut improved = true;
     let mut rounds = 0;
     while improved && rounds < 50 {
@@ -53,12 +47,15 @@ pub fn axis_aligned_order(points: &[IVec]) -> Vec<usize> {
         rounds += 1;
         for i in 1..n.saturating_sub(1) {
             for j in i + 1..n {
-                let mut cand = order.clone();
-                cand[i..=j].reverse();
-                let c = total(&cand);
-                if c < best {
-                    best = c;
-                    order = cand;
+                let (before, after) = (edge(order[i - 1], order[i]), edge(order[i - 1], order[j]));
+                let (mut d_adds, mut d_l1) = (after.0 as i64 - before.0 as i64, after.1 - before.1);
+                if j + 1 < n {
+                    let (old, new) = (edge(order[j], order[j + 1]), edge(order[i], order[j + 1]));
+                    d_adds += new.0 as i64 - old.0 as i64;
+                    d_l1 += new.1 - old.1;
+                }
+                if (d_adds, d_l1) < (0, 0) {
+                    order[i..=j].reverse();
                     improved = true;
                 }
             }

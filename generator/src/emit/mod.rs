@@ -239,6 +239,14 @@ pub fn file_name(filter: &str, layout: Layout, variant: Variant) -> String {
 
 /// Emits the module for one filter.
 pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
+    let polynomials = d.polynomials();
+    if polynomials > d.filter.caps.max_emitted_polynomials {
+        return Err(Error::EmitCap {
+            polynomials,
+            pieces: d.references.len(),
+            cap: d.filter.caps.max_emitted_polynomials,
+        });
+    }
     let plan = Plan::new(d);
     let s = d.facts.dim;
     let sh = Shapes::new(s);

@@ -6,6 +6,7 @@ pub mod exact;
 pub mod linalg;
 pub mod poly;
 pub mod polytope;
+pub mod scaled;
 
 /// All k-subsets of 0..n, in lexicographic order.
 pub fn subsets(n: usize, k: usize) -> Vec<Vec<usize>> {

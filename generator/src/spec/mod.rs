@@ -10,6 +10,7 @@
 //! ```
 
 pub mod lattice;
+pub mod random;
 
 use crate::error::{Error, Result};
 use crate::math::linalg::{rank_of_vectors, IVec};
@@ -24,13 +25,19 @@ pub struct Caps {
     pub max_directions: usize,
     pub max_degree: usize,
     pub max_stencil: usize,
-    /// Evaluation cells per fundamental domain.
+    /// Evaluation cells per fundamental domain (counted exactly before any
+    /// cell is cut).
     pub max_cells: usize,
+    /// Polynomials to derive and emit: reference pieces x stencil samples
+    /// (estimated before the cells are cut, checked exactly after).
+    pub max_polynomials: usize,
+    /// Polynomials in one emitted shader (each costs about 3 KB of WGSL).
+    pub max_emitted_polynomials: usize,
 }
 
 impl Default for Caps {
     fn default() -> Caps {
-        Caps { max_directions: 16, max_degree: 12, max_stencil: 512, max_cells: 100_000 }
+        Caps { max_directions: 16, max_degree: 12, max_stencil: 512, max_cells: 20_000, max_polynomials: 50_000, max_emitted_polynomials: 2_048 }
     }
 }
 

@@ -4,6 +4,7 @@
 //! gives the median ratio with its min..max over rounds (a range spanning 1.0
 //! is a tie).
 
+pub mod derive;
 pub mod references;
 pub mod stats;
 
@@ -974,6 +975,11 @@ fn quality(
         });
     }
     Ok((q, conv))
+}
+
+/// CPU model, cores, OS and architecture.
+pub fn machine_description() -> String {
+    machine_info()
 }
 
 fn machine_info() -> String {
