@@ -35,6 +35,10 @@ enum Command {
         /// Print JSON (one object, or an array with --all or several filters).
         #[arg(long)]
         json: bool,
+        /// Include `derivation_seconds` in the JSON (left out by default so
+        /// the same spec gives the same bytes; the text report always has it).
+        #[arg(long, requires = "json")]
+        timings: bool,
     },
     /// Derive filters and write their WGSL modules and reports (JSON +
     /// Markdown) into a directory.
@@ -467,12 +471,12 @@ fn run(cli: Cli) -> Result<(), Failure> {
             eprintln!("{} filters in {:.2} s", derivations.len(), started.elapsed().as_secs_f64());
             Ok(())
         }
-        Command::Inspect { filters, all, json } => {
+        Command::Inspect { filters, all, json, timings } => {
             let names = filter_names(filters, all)?;
             let resolved = names.iter().map(|n| spec::resolve(n)).collect::<Result<Vec<_>, _>>()?;
             let reports = derive_all(&resolved, |d, seconds| {
                 let mut r = Report::new(&d);
-                r.derivation_seconds = Some(seconds);
+                r.derivation_seconds = (!json || timings).then_some(seconds);
                 r
             })?;
             if json {

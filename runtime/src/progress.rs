@@ -27,10 +27,7 @@ pub fn derivation_bar(d: &Derivation) -> ProgressBar {
     if polynomials < BAR_FROM_POLYNOMIALS {
         return ProgressBar::hidden();
     }
-    bar(
-        d.references.len() as u64,
-        &format!("deriving {} ({polynomials} polynomials), reference pieces", d.filter.name),
-    )
+    bar(d.references.len() as u64, &format!("deriving {} ({polynomials} polynomials), reference pieces", d.filter.name))
 }
 
 fn draw_target() -> ProgressDrawTarget {

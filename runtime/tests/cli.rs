@@ -133,3 +133,27 @@ fn bad_volume_input_is_one_clear_line() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn a_spec_too_large_to_derive_is_refused_with_its_estimate_and_timings_are_opt_in() {
+    let dir = std::env::temp_dir().join(format!("boxforge-cli-caps-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let spec = dir.join("seven.toml");
+    std::fs::write(
+        &spec,
+        "name = \"seven\"\nlattice = \"cc\"\ndirections = [[-2,0,-2],[1,1,1],[1,-1,-2],[1,-2,1],[1,2,-2],[1,0,-1],[2,-2,0]]\n",
+    )
+    .unwrap();
+    let out = boxforge(&["inspect", spec.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(err.contains("polynomials") && err.contains("caps.max_polynomials"), "{err}");
+    let text = boxforge(&["inspect", "bcc7"]);
+    assert!(String::from_utf8_lossy(&text.stdout).contains("derived in"), "the text report has the time");
+    let json = boxforge(&["inspect", "bcc7", "--json", "--timings"]);
+    let v: serde_json::Value = serde_json::from_slice(&json.stdout).unwrap();
+    assert!(v["derivation_seconds"].as_f64().is_some());
+    assert_eq!(v["work"]["polynomials"], 30);
+    let _ = std::fs::remove_dir_all(&dir);
+}

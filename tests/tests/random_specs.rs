@@ -38,7 +38,13 @@ fn every_piece_equals_de_boor_on_seeded_random_specs() {
             for (k, poly) in r.stencil.iter().zip(&d.forms(ri).polys) {
                 let j: QVec = add_i(&r.corner, k).iter().map(|&x| Q::int(x)).collect();
                 let expected = oracle.phi(&sub_q(&cell.interior, &j));
-                assert_eq!(poly.eval(&u), expected, "{:?} on {}, piece {ri}, offset {k:?}", f.directions, f.lattice.name);
+                assert_eq!(
+                    poly.eval(&u),
+                    expected,
+                    "{:?} on {}, piece {ri}, offset {k:?}",
+                    f.directions,
+                    f.lattice.name
+                );
                 pieces += 1;
             }
         }
@@ -57,7 +63,8 @@ fn spec(lattice: &str, directions: &[&[i64]], caps: Caps) -> Result<Filter, Erro
 /// cut, with the numbers and the knob in the message.
 #[test]
 fn the_issues_seven_direction_spec_is_refused_by_its_estimate() {
-    let dirs: [&[i64]; 7] = [&[-2, 0, -2], &[1, 1, 1], &[1, -1, -2], &[1, -2, 1], &[1, 2, -2], &[1, 0, -1], &[2, -2, 0]];
+    let dirs: [&[i64]; 7] =
+        [&[-2, 0, -2], &[1, 1, 1], &[1, -1, -2], &[1, -2, 1], &[1, 2, -2], &[1, 0, -1], &[2, -2, 0]];
     let f = spec("cc", &dirs, Caps::default()).unwrap();
     let e = Derivation::new(&f).err().expect("refused");
     match &e {
@@ -79,17 +86,26 @@ fn every_cap_refuses_a_spec_that_exceeds_it() {
         f(&mut c);
         c
     };
-    assert!(matches!(spec("bcc", &bcc7, caps(|c| c.max_directions = 6)), Err(Error::TooManyDirections { count: 7, cap: 6 })));
+    assert!(matches!(
+        spec("bcc", &bcc7, caps(|c| c.max_directions = 6)),
+        Err(Error::TooManyDirections { count: 7, cap: 6 })
+    ));
     assert!(matches!(spec("bcc", &bcc7, caps(|c| c.max_degree = 3)), Err(Error::DegreeCap { degree: 4, cap: 3 })));
     let derive = |c: Caps| Derivation::new(&spec("bcc", &bcc7, c).unwrap());
     assert!(matches!(derive(caps(|c| c.max_stencil = 20)), Err(Error::StencilCap { cap: 20, .. })));
     assert!(matches!(derive(caps(|c| c.max_cells = 10)), Err(Error::CellCap { cells: 24, cap: 10 })));
     // bcc7: one reference piece of 30 samples, estimated exactly.
-    assert!(matches!(derive(caps(|c| c.max_polynomials = 29)), Err(Error::PolynomialCap { exact: false, polynomials: 30, .. })));
+    assert!(matches!(
+        derive(caps(|c| c.max_polynomials = 29)),
+        Err(Error::PolynomialCap { exact: false, polynomials: 30, .. })
+    ));
     // fcc6: estimated 1 x 16, but two reference pieces of 16: refused by the exact count.
     let fcc6 = boxforge::spec::catalog::get("fcc6").unwrap();
     let fcc6 = Filter::new("fcc6", "", fcc6.lattice, fcc6.directions, caps(|c| c.max_polynomials = 20)).unwrap();
-    assert!(matches!(Derivation::new(&fcc6), Err(Error::PolynomialCap { exact: true, polynomials: 32, pieces: 2, .. })));
+    assert!(matches!(
+        Derivation::new(&fcc6),
+        Err(Error::PolynomialCap { exact: true, polynomials: 32, pieces: 2, .. })
+    ));
     let d = derive(caps(|c| c.max_emitted_polynomials = 29)).unwrap();
     let e = emit(&d, &EmitOptions::default()).err().expect("over the emission cap");
     assert!(matches!(e, Error::EmitCap { polynomials: 30, cap: 29, .. }), "{e}");

@@ -326,7 +326,11 @@ impl Report {
                     self.work.estimate.polynomials,
                     self.work.estimate.reference_pieces,
                     self.work.estimate.stencil,
-                    if self.work.coefficients_listed { "" } else { "; coefficients not listed (over the report limit)" }
+                    if self.work.coefficients_listed {
+                        ""
+                    } else {
+                        "; coefficients not listed (over the report limit)"
+                    }
                 ),
             ),
         ];

@@ -160,7 +160,8 @@ impl Derivation {
         debug_assert_eq!(arrangement.cells.len(), cells, "counted cells = cut cells");
         let pp = PpForm::new(&facts, lattice.det());
         let maps = cell_maps(&arrangement, lattice, &group);
-        let reference_cells: Vec<usize> = maps.iter().enumerate().filter(|(i, m)| m.reference == *i).map(|(i, _)| i).collect();
+        let reference_cells: Vec<usize> =
+            maps.iter().enumerate().filter(|(i, m)| m.reference == *i).map(|(i, _)| i).collect();
         let ref_of_cell: HashMap<usize, usize> = reference_cells.iter().enumerate().map(|(r, &c)| (c, r)).collect();
         let references: Vec<ReferencePiece> =
             reference_cells.par_iter().map(|&i| reference_piece(&arrangement, &facts, lattice, i)).collect();

@@ -57,8 +57,7 @@ struct TermTable {
 impl PieceTables {
     /// The tables, or `None` when some entry does not fit `i128`.
     pub fn new(pp: &PpForm) -> Option<Arc<PieceTables>> {
-        let shifts: Vec<Vec<i128>> =
-            pp.shifts.iter().map(|(s, _)| s.iter().map(|&x| x as i128).collect()).collect();
+        let shifts: Vec<Vec<i128>> = pp.shifts.iter().map(|(s, _)| s.iter().map(|&x| x as i128).collect()).collect();
         let weights = pp.shifts.iter().map(|(_, w)| integer(w)).collect::<Option<Vec<i128>>>()?;
         let terms = pp
             .terms
@@ -146,9 +145,8 @@ impl PieceTables {
                     // C(k, l) X^(k-l) q^l for l = k down to 0.
                     let mut xpow: i128 = 1;
                     for l in (0..=k).rev() {
-                        let coefficient = binomial(k, l)?
-                            .checked_mul(xpow)?
-                            .checked_mul(b.denominator.checked_pow(l as u32)?)?;
+                        let coefficient =
+                            binomial(k, l)?.checked_mul(xpow)?.checked_mul(b.denominator.checked_pow(l as u32)?)?;
                         let slot = &mut next[lowest + l * inner];
                         *slot = mul_add(*slot, c, coefficient)?;
                         xpow = xpow.checked_mul(x)?;
@@ -205,7 +203,8 @@ impl TermTable {
         // Shifts with their dots, sorted by the first.
         let mut rows_of_shifts: Vec<(Vec<i64>, i128)> = Vec::with_capacity(shifts.len());
         for (sh, &w) in shifts.iter().zip(weights) {
-            let sd = rows.iter().map(|r| dot(r, sh).and_then(|x| i64::try_from(x).ok())).collect::<Option<Vec<i64>>>()?;
+            let sd =
+                rows.iter().map(|r| dot(r, sh).and_then(|x| i64::try_from(x).ok())).collect::<Option<Vec<i64>>>()?;
             rows_of_shifts.push((sd, w));
         }
         rows_of_shifts.sort();
@@ -221,8 +220,11 @@ impl TermTable {
                 moments.push(c);
             }
         }
-        let binomials: Vec<Vec<i128>> =
-            term.powers.iter().map(|&p| (0..=p as usize).map(|k| binomial(p as usize, k)).collect()).collect::<Option<_>>()?;
+        let binomials: Vec<Vec<i128>> = term
+            .powers
+            .iter()
+            .map(|&p| (0..=p as usize).map(|k| binomial(p as usize, k)).collect())
+            .collect::<Option<_>>()?;
         let row_forms: Vec<Vec<Q>> = rows.iter().map(|r| r.iter().map(|&x| ratio(x, 1)).collect()).collect();
         let mut images = Vec::with_capacity(size);
         let mut complement = Vec::with_capacity(size);
@@ -297,7 +299,6 @@ fn binomial(n: usize, k: usize) -> Option<i128> {
 fn dot(a: &[i128], b: &[i128]) -> Option<i128> {
     a.iter().zip(b).try_fold(0i128, |acc, (x, y)| mul_add(acc, *x, *y))
 }
-
 
 #[cfg(test)]
 mod tests {

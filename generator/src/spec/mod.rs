@@ -37,7 +37,14 @@ pub struct Caps {
 
 impl Default for Caps {
     fn default() -> Caps {
-        Caps { max_directions: 16, max_degree: 12, max_stencil: 512, max_cells: 20_000, max_polynomials: 50_000, max_emitted_polynomials: 2_048 }
+        Caps {
+            max_directions: 16,
+            max_degree: 12,
+            max_stencil: 512,
+            max_cells: 20_000,
+            max_polynomials: 50_000,
+            max_emitted_polynomials: 2_048,
+        }
     }
 }
 

@@ -178,7 +178,14 @@ pub fn markdown(r: &DeriveReport, command: &str) -> String {
         let _ = writeln!(
             s,
             "| {} | {} | `{:?}` | {} | {} | {} | {} | {:.3} |",
-            row.name, row.lattice, row.directions, row.outcome, row.cells, row.reference_pieces, row.polynomials, row.seconds
+            row.name,
+            row.lattice,
+            row.directions,
+            row.outcome,
+            row.cells,
+            row.reference_pieces,
+            row.polynomials,
+            row.seconds
         );
     }
     let _ = writeln!(s, "\n{SECTION_END}");
