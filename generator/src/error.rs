@@ -36,7 +36,7 @@ pub enum Error {
     DegreeCap { degree: usize, cap: usize },
     #[error("the stencil would have up to {size} samples, over the cap of {cap}: use shorter directions or raise `caps.max_stencil` in the spec")]
     StencilCap { size: usize, cap: usize },
-    #[error("the knot planes cut the unit cubes into {cells} cells, over the cap of {cap}: use shorter or fewer directions, or raise `caps.max_cells` in the spec")]
+    #[error("the knot planes cut the unit cubes into at least {cells} cells (counted before cutting), over the cap of {cap}: use shorter or fewer directions, or raise `caps.max_cells` in the spec (`Caps` in the Builder)")]
     CellCap { cells: usize, cap: usize },
     #[error("{} {polynomials} polynomials ({pieces} reference pieces x {} {stencil} stencil samples), over the cap of {cap}: use shorter or fewer directions (or more symmetric ones), or raise `caps.max_polynomials` in the spec (`Caps` in the Builder)", if *exact { "the derivation needs" } else { "the derivation would need about" }, if *exact { "up to" } else { "about" })]
     PolynomialCap { polynomials: usize, pieces: usize, stencil: usize, exact: bool, cap: usize },

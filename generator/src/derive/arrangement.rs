@@ -231,9 +231,30 @@ impl Frame {
     /// The number of cells of every class, exactly, without cutting (see
     /// [`crate::derive::cell_count`]).
     pub fn count_cells(&self) -> usize {
-        (0..self.classes.len())
-            .map(|ci| crate::derive::cell_count::count_regions(&self.crossing_planes(ci), &self.cube_lower_corner(ci)))
-            .sum()
+        match self.count_cells_within(usize::MAX) {
+            Ok(n) | Err(n) => n,
+        }
+    }
+
+    /// [`Frame::count_cells`], or `Err(lower bound)` as soon as a lower
+    /// bound exceeds `budget` (a refusal then costs a fraction of the count).
+    pub fn count_cells_within(&self, budget: usize) -> Result<usize, usize> {
+        let mut total = 0usize;
+        for ci in 0..self.classes.len() {
+            let left = budget.saturating_sub(total);
+            match crate::derive::cell_count::count_regions_within(
+                &self.crossing_planes(ci),
+                &self.cube_lower_corner(ci),
+                left,
+            ) {
+                Ok(n) => total += n,
+                Err(lower) => return Err(total + lower),
+            }
+            if total > budget {
+                return Err(total);
+            }
+        }
+        Ok(total)
     }
 }
 

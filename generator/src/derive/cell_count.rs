@@ -26,9 +26,22 @@ pub type Plane = (IVec, Q);
 /// Regions of the open unit cube `lo + (0,1)^s` cut by `planes` (each of
 /// which crosses the open cube), s = 2 or 3.
 pub fn count_regions(planes: &[Plane], lo: &[Q]) -> usize {
+    match count_regions_within(planes, lo, usize::MAX) {
+        Ok(n) | Err(n) => n,
+    }
+}
+
+/// [`count_regions`], but `Err(lower bound)` as soon as a lower bound
+/// exceeds `budget`: every term of the count is non-negative, so 1 + m and
+/// then 1 + m + the line terms bound it from below before the costly point
+/// terms (O(lines x planes)) are computed.
+pub fn count_regions_within(planes: &[Plane], lo: &[Q], budget: usize) -> Result<usize, usize> {
+    if 1 + planes.len() > budget {
+        return Err(1 + planes.len());
+    }
     match lo.len() {
-        2 => count_2d(planes, lo),
-        3 => count_3d(planes, lo),
+        2 => Ok(count_2d(planes, lo)),
+        3 => count_3d(planes, lo, budget),
         s => panic!("cell counting supports 2D and 3D, not {s}D"),
     }
 }
@@ -73,7 +86,7 @@ struct LineKey {
     point: QVec,
 }
 
-fn count_3d(planes: &[Plane], lo: &[Q]) -> usize {
+fn count_3d(planes: &[Plane], lo: &[Q], budget: usize) -> Result<usize, usize> {
     let m = planes.len();
     // Every line where two planes meet, with the planes that contain it.
     let mut lines: HashMap<LineKey, BTreeSet<usize>> = HashMap::new();
@@ -93,6 +106,10 @@ fn count_3d(planes: &[Plane], lo: &[Q]) -> usize {
     }
     let lines: Vec<(LineKey, BTreeSet<usize>)> =
         lines.into_iter().filter(|(l, _)| line_meets_open_cube(l, lo)).collect();
+    let line_terms: usize = lines.iter().map(|(_, on)| on.len() - 1).sum();
+    if 1 + m + line_terms > budget {
+        return Err(1 + m + line_terms);
+    }
     // Points: each line against every plane that crosses it.
     let mut points: HashMap<QVec, (BTreeSet<usize>, BTreeSet<usize>)> = HashMap::new();
     for (li, (line, on)) in lines.iter().enumerate() {
@@ -112,14 +129,13 @@ fn count_3d(planes: &[Plane], lo: &[Q]) -> usize {
             crossing.insert(li);
         }
     }
-    let line_terms: usize = lines.iter().map(|(_, on)| on.len() - 1).sum();
     let point_terms: i64 = points
         .values()
         .map(|(through, crossing)| {
             1 - through.len() as i64 + crossing.iter().map(|&l| lines[l].1.len() as i64 - 1).sum::<i64>()
         })
         .sum();
-    (1 + m as i64 + line_terms as i64 + point_terms) as usize
+    Ok((1 + m as i64 + line_terms as i64 + point_terms) as usize)
 }
 
 /// Does x0 + t d meet the open cube lo + (0,1)^3?

@@ -142,10 +142,9 @@ impl Derivation {
                 sub_q(&mat_vec_q(&rq, &o), &o).iter().all(|x| x.is_integer())
             })
             .collect();
-        let cells = frame.count_cells();
-        if cells > filter.caps.max_cells {
-            return Err(Error::CellCap { cells, cap: filter.caps.max_cells });
-        }
+        let cells = frame
+            .count_cells_within(filter.caps.max_cells)
+            .map_err(|lower| Error::CellCap { cells: lower, cap: filter.caps.max_cells })?;
         let estimate = Estimate::new(cells, group.len(), &facts, lattice);
         if estimate.polynomials > filter.caps.max_polynomials {
             return Err(Error::PolynomialCap {
