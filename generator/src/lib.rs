@@ -11,7 +11,7 @@
 //! ```
 //!
 //! * [`spec`]: the input: spec files, lattices, caps, the built-in catalog.
-//! * [`derive`]: everything derived exactly from the direction matrix.
+//! * [`derive`](mod@derive): everything derived exactly from the direction matrix.
 //! * [`eval`]: evaluation of a derived spline (exact, f64) and the independent
 //!   de Boor oracle the tests compare against.
 //! * [`emit`]: branch-free point location, fetch order, evaluation forms and
@@ -19,6 +19,10 @@
 //! * [`validate`]: naga validation and the branch-free / table-free proof.
 //! * [`build`]: the `build.rs` [`Builder`], atomic file output and reports.
 //! * [`math`]: exact rationals, linear algebra, polynomials, polytopes.
+
+// The exact numeric code indexes several parallel arrays (coordinates,
+// rows, planes) by one loop variable; iterator chains would hide that.
+#![allow(clippy::needless_range_loop)]
 
 pub mod build;
 pub mod derive;

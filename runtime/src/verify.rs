@@ -99,6 +99,9 @@ pub fn gpu_eval(
     gpu_eval_with(gpu, d, vol, variant, None, Bounds::Clamp, points).map(|(v, g, _)| (v, g))
 }
 
+/// Values, gradients (xyz, w unused) and the evaluation form that was emitted.
+pub type GpuValues = (Vec<f32>, Vec<[f32; 4]>, EvalForm);
+
 /// [`gpu_eval`] with a forced evaluation form and a bounds policy; also
 /// returns the form that was emitted.
 pub fn gpu_eval_with(
@@ -109,7 +112,7 @@ pub fn gpu_eval_with(
     form: Option<EvalForm>,
     bounds: Bounds,
     points: &[[f32; 4]],
-) -> Result<(Vec<f32>, Vec<[f32; 4]>, EvalForm), GpuError> {
+) -> Result<GpuValues, GpuError> {
     let module = emit(
         d,
         &EmitOptions {

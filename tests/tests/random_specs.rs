@@ -66,7 +66,7 @@ fn the_issues_seven_direction_spec_is_refused_by_its_estimate() {
     let dirs: [&[i64]; 7] =
         [&[-2, 0, -2], &[1, 1, 1], &[1, -1, -2], &[1, -2, 1], &[1, 2, -2], &[1, 0, -1], &[2, -2, 0]];
     let f = spec("cc", &dirs, Caps::default()).unwrap();
-    let e = Derivation::new(&f).err().expect("refused");
+    let e = Derivation::new(&f).expect_err("refused");
     match &e {
         Error::PolynomialCap { polynomials, exact, cap, .. } => {
             assert!(!exact, "refused by the estimate");
@@ -109,7 +109,7 @@ fn every_cap_refuses_a_spec_that_exceeds_it() {
         Err(Error::PolynomialCap { exact: true, polynomials: 32, pieces: 2, .. })
     ));
     let d = derive(caps(|c| c.max_emitted_polynomials = 29)).unwrap();
-    let e = emit(&d, &EmitOptions::default()).err().expect("over the emission cap");
+    let e = emit(&d, &EmitOptions::default()).expect_err("over the emission cap");
     assert!(matches!(e, Error::EmitCap { polynomials: 30, cap: 29, .. }), "{e}");
     assert!(e.to_string().contains("caps.max_emitted_polynomials"));
     assert!(emit(&derive(Caps::default()).unwrap(), &EmitOptions::default()).is_ok());

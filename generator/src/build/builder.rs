@@ -337,7 +337,7 @@ mod tests {
     fn builder_caps_replace_the_specs_caps() {
         let dir = temp_dir("caps");
         let tight = Caps { max_emitted_polynomials: 10, ..Caps::default() };
-        let e = Builder::new().filter("bcc7").caps(tight).out_dir(&dir).generate().err().expect("refused");
+        let e = Builder::new().filter("bcc7").caps(tight).out_dir(&dir).generate().expect_err("refused");
         assert!(matches!(e, Error::EmitCap { polynomials: 30, cap: 10, .. }), "{e}");
         assert!(!dir.join("bcc7.embedded.wgsl").exists(), "nothing written on a refusal");
         let degree = Caps { max_degree: 2, ..Caps::default() };

@@ -41,7 +41,7 @@ impl KnotFamily {
             if &v > lo {
                 out.push(v);
             }
-            k = k + Q::one();
+            k += Q::one();
         }
         out
     }
@@ -52,7 +52,7 @@ impl KnotFamily {
     }
 }
 
-/// One evaluation cell: a convex polytope inside the unit cube o + z + [0,1]^s
+/// One evaluation cell: a convex polytope inside the unit cube o + z + `[0,1]^s`
 /// of a cube-class representative z.
 #[derive(Clone, Debug)]
 pub struct Cell {
@@ -100,7 +100,7 @@ impl Arrangement {
         arr
     }
 
-    /// The cube's integer lower corner z for cell i (the cube is o + z + [0,1]^s).
+    /// The cube's integer lower corner z for cell i (the cube is o + z + `[0,1]^s`).
     pub fn corner(&self, cell: usize) -> &IVec {
         &self.classes[self.cells[cell].class]
     }
@@ -118,7 +118,7 @@ impl Arrangement {
     fn count_pieces(&self, lattice: &Lattice) -> usize {
         let s = self.grid_offset.len();
         let mut parent: Vec<usize> = (0..self.cells.len()).collect();
-        fn find(p: &mut Vec<usize>, i: usize) -> usize {
+        fn find(p: &mut [usize], i: usize) -> usize {
             let mut r = i;
             while p[r] != r {
                 r = p[r];
@@ -276,7 +276,7 @@ fn cut_recursively(p: Polytope, planes: &[(QVec, Q)], out: &mut Vec<Polytope>) {
     cut_recursively(hi, &rest, out);
 }
 
-/// min and max of n.x over the unit cube lo + [0,1]^s.
+/// min and max of n.x over the unit cube lo + `[0,1]^s`.
 fn cube_range(n: &[i64], lo: &[Q]) -> (Q, Q) {
     let base = dot_iq(n, lo);
     let neg: i64 = n.iter().filter(|&&x| x < 0).sum();

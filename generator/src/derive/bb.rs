@@ -13,7 +13,7 @@ pub struct BbForm {
     pub vertices: Vec<QVec>,
     /// Multi-indices alpha (|alpha| = degree, s+1 entries).
     pub indices: Vec<Vec<u32>>,
-    /// weights[a][k]: weight of stencil sample k in coefficient a.
+    /// `weights[a][k]`: weight of stencil sample k in coefficient a.
     pub weights: Vec<Vec<Q>>,
 }
 

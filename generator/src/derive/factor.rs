@@ -119,7 +119,7 @@ impl Factorisation {
             loop {
                 if k == s {
                     let prod: i64 = steps.iter().product();
-                    let scale = Q::frac(lattice.det() as i64, prod);
+                    let scale = Q::frac(lattice.det(), prod);
                     let axes = (0..s)
                         .map(|i| AxisFactor {
                             step: steps[i],

@@ -81,7 +81,7 @@ impl CellMap {
 pub struct ReferencePiece {
     /// Index into `Arrangement::cells`.
     pub cell: usize,
-    /// Integer lower corner z of its cube (the cube is o + z + [0,1]^s).
+    /// Integer lower corner z of its cube (the cube is o + z + `[0,1]^s`).
     pub corner: IVec,
     /// Vertices in global coordinates.
     pub vertices: Vec<QVec>,

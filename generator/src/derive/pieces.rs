@@ -171,7 +171,7 @@ fn accumulate_outer(tensor: &mut [Q], factors: &[Vec<Q>], dims: &[usize], w: &Q)
                 v = Q::zero();
                 break;
             }
-            v = v * &f[i];
+            v *= &f[i];
         }
         if !v.is_zero() {
             *slot += &v;
@@ -186,6 +186,9 @@ fn accumulate_outer(tensor: &mut [Q], factors: &[Vec<Q>], dims: &[usize], w: &Q)
     }
 }
 
+/// A circuit of a support set: the extra direction and its coordinates in the basis.
+type Circuit = (usize, Vec<(usize, Q)>);
+
 /// Splits prod_d 1/(w.d)^mu_d into terms over bases: returns cone terms.
 fn partial_fractions(dirs: &[IVec], mult: &[u32], s: usize) -> Vec<ConeTerm> {
     let n = dirs.len();
@@ -193,7 +196,7 @@ fn partial_fractions(dirs: &[IVec], mult: &[u32], s: usize) -> Vec<ConeTerm> {
     work.insert(mult.to_vec(), Q::one());
     let mut done: BTreeMap<Vec<u32>, Q> = BTreeMap::new();
     // Circuit cache per support set.
-    let mut circuits: BTreeMap<Vec<usize>, (usize, Vec<(usize, Q)>)> = BTreeMap::new();
+    let mut circuits: BTreeMap<Vec<usize>, Circuit> = BTreeMap::new();
     while let Some((exps, c)) = work.pop_first() {
         if c.is_zero() {
             continue;

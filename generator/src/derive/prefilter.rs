@@ -166,7 +166,7 @@ impl Span {
 
 /// Monomials of even total degree <= max_deg, in the order of [`monomials`].
 fn even_monomials(dim: usize, max_deg: usize) -> Vec<Vec<u32>> {
-    monomials(dim, max_deg).into_iter().filter(|m| degree(m) % 2 == 0).collect()
+    monomials(dim, max_deg).into_iter().filter(|m| degree(m).is_multiple_of(2)).collect()
 }
 
 // ---------------------------------------------------------------------------

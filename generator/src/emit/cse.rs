@@ -147,7 +147,7 @@ impl LinearMap {
         self.rows.iter().map(|r| r.iter().map(|(k, c)| c.clone() * &vars[*k]).sum()).collect()
     }
 
-    /// Static op count of [`LinearMap::emit`] (adds, subtracts, multiplies).
+    /// Static op count of `LinearMap::emit` (adds, subtracts, multiplies).
     pub fn ops(&self) -> usize {
         let defs: usize = self.defs.iter().map(|(_, _, q)| 1 + usize::from(!q.abs().is_one())).sum();
         let rows: usize = self.rows.iter().map(|r| row_ops(r)).sum();

@@ -44,6 +44,7 @@ pub(crate) fn form_weights(form: &Form) -> (Vec<Vec<u32>>, Vec<Vec<Q>>) {
 
 /// Evaluates a form at local coordinates `u` from its coefficient names.
 /// Returns (value, gradient in u as a vector expression or None).
+#[allow(clippy::too_many_arguments)] // one emitter, its inputs are independent
 pub(crate) fn emit_form_eval(
     body: &mut Body,
     sh: &Shapes,

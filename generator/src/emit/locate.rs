@@ -247,6 +247,9 @@ pub(crate) fn local_coords(sh: &Shapes, d: &Derivation, plan: &Plan, c: &Candida
     }
 }
 
+/// One reference piece's emitted value: (reference, value expression, gradient expression).
+type PieceValue = (usize, String, Option<String>);
+
 /// The body of eval (grad = false) or eval_grad.
 pub(crate) fn emit_eval_body(
     d: &Derivation,
@@ -266,7 +269,7 @@ pub(crate) fn emit_eval_body(
     } else {
         emit_fetches(&mut body, sh, plan, &frame, &ci, name)
     };
-    let mut values: Vec<(usize, String, Option<String>)> = Vec::new();
+    let mut values: Vec<PieceValue> = Vec::new();
     for r in plan.used_references() {
         let forms = d.forms(r);
         let form = match (&forms.bb, piece) {
@@ -321,7 +324,7 @@ pub(crate) fn emit_eval_body(
     }
     // Pick the chosen candidate's reference.
     let ref_of: Vec<usize> = plan.candidates.iter().map(|c| c.reference).collect();
-    let pick = |body: &mut Body, which: &dyn Fn(&(usize, String, Option<String>)) -> String, prefix: &str| {
+    let pick = |body: &mut Body, which: &dyn Fn(&PieceValue) -> String, prefix: &str| {
         let per_cand: Vec<String> =
             ref_of.iter().map(|r| which(values.iter().find(|(rr, _, _)| rr == r).unwrap())).collect();
         select_by_candidate(body, &ci, &per_cand, prefix)

@@ -1,7 +1,7 @@
 //! WGSL emission: turns a [`Plan`] and the exact reference forms into a
 //! module with `<f>_fetch`, `<f>_eval`, `<f>_eval_grad`, and the prefilter
 //! and min/max kernels. Skeletons are minijinja templates (`templates/`);
-//! expression code is written by the small [`Body`] writer below.
+//! expression code is written by the small `Body` writer below.
 //!
 //! The `fast` variant is straight-line code: folding, sorting networks and
 //! plane tests drive `select`; fetch positions walk axis-aligned steps. The
@@ -313,7 +313,7 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
         // (a contraction, not dense weights of every sample).
         match &fac {
             Some(fac) if !naive && fac.knots_on_cube_faces() => {
-                helper_text.push_str(&factored::emit_factored_bounds(&fac, &sh, name))
+                helper_text.push_str(&factored::emit_factored_bounds(fac, &sh, name))
             }
             _ => helper_text.push_str(&cube_bounds_fn(d, &sh, name)),
         }

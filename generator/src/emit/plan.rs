@@ -68,7 +68,7 @@ impl Plan {
     }
 
     /// Folding without the sorting network: candidates cover the whole folded
-    /// cube [0,1]^s (used for per-cube bounds).
+    /// cube `[0,1]^s` (used for per-cube bounds).
     pub fn without_sort(d: &Derivation) -> Plan {
         Plan::build(d, false)
     }
@@ -248,7 +248,7 @@ fn fetch_offset(d: &Derivation, c: &Candidate, r: usize, k: &[i64]) -> IVec {
     mat_vec_i(&inverse(&c.rotation), &sub_i(&kk, &c.translation))
 }
 
-/// The fold chamber F: [0,1]^s, and u_1 >= ... >= u_s when sorting.
+/// The fold chamber F: `[0,1]^s`, and u_1 >= ... >= u_s when sorting.
 fn chamber(s: usize, sort: bool) -> Vec<HalfSpace> {
     let mut hs = Vec::new();
     for i in 0..s {
@@ -286,7 +286,7 @@ fn fold_candidates(d: &Derivation, sort: bool) -> Vec<Candidate> {
     let arr = &d.arrangement;
     let lattice = &d.filter.lattice;
     let f = chamber(s, sort);
-    // Cubes o + z + [0,1]^s meeting [0,1]^s: z_i = 0 when o_i = 0, z_i in {-1, 0} when o_i = 1/2.
+    // Cubes o + z + `[0,1]^s` meeting `[0,1]^s`: z_i = 0 when o_i = 0, z_i in {-1, 0} when o_i = 1/2.
     let mut zs: Vec<IVec> = vec![vec![]];
     for i in 0..s {
         let opts: Vec<i64> = if arr.grid_offset[i].is_zero() { vec![0] } else { vec![-1, 0] };

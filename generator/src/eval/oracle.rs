@@ -7,7 +7,7 @@
 //!
 //! Method. Equal columns are grouped into distinct directions `d_k` with
 //! multiplicities, so a sub-multiset of Xi is a multiplicity vector `mu`
-//! (stored once per distinct `mu` in a [`Node`]). For a node with `m`
+//! (stored once per distinct `mu` in a `Node`). For a node with `m`
 //! columns, `m > s`, and any `t` with `Xi t = x`:
 //!
 //! `(m - s) M_mu(x) = sum_k [ T_k M_{mu-e_k}(x) + (mu_k - T_k) M_{mu-e_k}(x - d_k) ]`

@@ -92,7 +92,7 @@ fn row_reduce(m: &[QVec]) -> (Vec<QVec>, Vec<usize>, Q) {
             det = -det;
         }
         let pv = a[r][c].clone();
-        det = det * &pv;
+        det *= &pv;
         let inv = pv.recip();
         for x in a[r].iter_mut() {
             *x = &*x * &inv;

@@ -20,7 +20,8 @@ pub struct Monomials {
 impl Monomials {
     /// Shared table for (nvars, degree).
     pub fn get(nvars: usize, degree: usize) -> Arc<Monomials> {
-        static CACHE: OnceLock<Mutex<HashMap<(usize, usize), Arc<Monomials>>>> = OnceLock::new();
+        type Cache = Mutex<HashMap<(usize, usize), Arc<Monomials>>>;
+        static CACHE: OnceLock<Cache> = OnceLock::new();
         let cache = CACHE.get_or_init(|| Mutex::new(HashMap::new()));
         let mut guard = cache.lock().unwrap_or_else(|e| e.into_inner());
         guard.entry((nvars, degree)).or_insert_with(|| Arc::new(Monomials::build(nvars, degree))).clone()
@@ -203,7 +204,7 @@ impl Poly {
             let mut term = c.clone();
             for (v, &k) in e.iter().enumerate() {
                 if k > 0 {
-                    term = term * &pows[v][k as usize];
+                    term *= &pows[v][k as usize];
                 }
             }
             acc += &term;
@@ -247,7 +248,7 @@ impl Poly {
     }
 }
 
-/// A dense tensor sum_e c_e prod_v t_v^{e_v} with e_v < dims[v] (row-major,
+/// A dense tensor sum_e c_e prod_v t_v^{e_v} with e_v < `dims[v]` (row-major,
 /// last variable fastest), turned into a polynomial of u with t = A u + b by
 /// nested Horner steps; cheap when A is sparse.
 pub fn tensor_to_poly(tensor: &[Q], dims: &[usize], a: &[Vec<Q>], b: &[Q], nvars: usize, degree: usize) -> Poly {
@@ -274,6 +275,35 @@ pub fn tensor_to_poly(tensor: &[Q], dims: &[usize], a: &[Vec<Q>], b: &[Q], nvars
         return Poly::zero(nvars, degree);
     }
     rec(tensor, dims, a, b, nvars, degree)
+}
+
+/// Value and gradient of sum c_e u^e.
+pub fn eval_poly_f64(exps: &[Vec<u32>], coeffs: &[f64], u: &[f64]) -> (f64, Vec<f64>) {
+    let s = u.len();
+    let mut v = 0.0;
+    let mut g = vec![0.0; s];
+    for (e, &c) in exps.iter().zip(coeffs) {
+        if c == 0.0 {
+            continue;
+        }
+        let mut m = c;
+        for i in 0..s {
+            m *= u[i].powi(e[i] as i32);
+        }
+        v += m;
+        for d in 0..s {
+            if e[d] == 0 {
+                continue;
+            }
+            let mut md = c * e[d] as f64;
+            for i in 0..s {
+                let k = if i == d { e[i] - 1 } else { e[i] };
+                md *= u[i].powi(k as i32);
+            }
+            g[d] += md;
+        }
+    }
+    (v, g)
 }
 
 #[cfg(test)]
@@ -308,37 +338,8 @@ mod tests {
         // t0^1 * t1^2 with t0 = 2u, t1 = v + 1, tensor dims [2,3]
         let q = |n| Q::int(n);
         let mut t = vec![Q::zero(); 6];
-        t[1 * 3 + 2] = Q::one();
+        t[3 + 2] = Q::one();
         let p = tensor_to_poly(&t, &[2, 3], &[vec![q(2), q(0)], vec![q(0), q(1)]], &[q(0), q(1)], 2, 3);
         assert_eq!(p.eval(&[q(3), q(2)]), q(6 * 9));
     }
-}
-
-/// Value and gradient of sum c_e u^e.
-pub fn eval_poly_f64(exps: &[Vec<u32>], coeffs: &[f64], u: &[f64]) -> (f64, Vec<f64>) {
-    let s = u.len();
-    let mut v = 0.0;
-    let mut g = vec![0.0; s];
-    for (e, &c) in exps.iter().zip(coeffs) {
-        if c == 0.0 {
-            continue;
-        }
-        let mut m = c;
-        for i in 0..s {
-            m *= u[i].powi(e[i] as i32);
-        }
-        v += m;
-        for d in 0..s {
-            if e[d] == 0 {
-                continue;
-            }
-            let mut md = c * e[d] as f64;
-            for i in 0..s {
-                let k = if i == d { e[i] - 1 } else { e[i] };
-                md *= u[i].powi(k as i32);
-            }
-            g[d] += md;
-        }
-    }
-    (v, g)
 }

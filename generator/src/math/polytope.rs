@@ -32,7 +32,7 @@ pub struct Polytope {
 }
 
 impl Polytope {
-    /// The box lo + [0,1]^s.
+    /// The box lo + `[0,1]^s`.
     pub fn unit_cube(lo: &[Q]) -> Polytope {
         let s = lo.len();
         let mut hs = Vec::new();
@@ -286,7 +286,7 @@ fn triangulate_facet(points: &[QVec], s: usize) -> Vec<Vec<QVec>> {
             continue;
         }
         seen.push(flat.clone());
-        for tri in triangulate_facet(&flat, s - 1 + 0).into_iter().filter(|t| t.len() == s - 1) {
+        for tri in triangulate_facet(&flat, s - 1).into_iter().filter(|t| t.len() == s - 1) {
             let mut simplex = vec![apex.clone()];
             simplex.extend(tri);
             out.push(simplex);

@@ -59,9 +59,8 @@ pub fn run(count: usize) -> DeriveReport {
         .iter()
         .map(|f| {
             let started = Instant::now();
-            let result = Derivation::new(f).map(|d| {
+            let result = Derivation::new(f).inspect(|d| {
                 d.derive_all_forms(&|_, _| {});
-                d
             });
             let seconds = started.elapsed().as_secs_f64();
             bar.inc(1);

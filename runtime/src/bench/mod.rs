@@ -995,8 +995,6 @@ fn machine_info() -> String {
     format!("{cpu}, {cores} cores, {} {}", std::env::consts::OS, std::env::consts::ARCH)
 }
 
-/// docs/BENCHMARKS.md from a report.
-
 fn ratio_cells(r: &Option<Ratio>) -> (String, String) {
     match r {
         Some(r) => (format!("{:.2} [{:.2}..{:.2}]", r.median, r.min, r.max), if r.tie { "tie" } else { "" }.into()),
@@ -1017,8 +1015,7 @@ pub fn markdown(r: &BenchReport, command: &str) -> String {
     );
     let _ = writeln!(
         s,
-        "## Generated vs hand-written\n\nThe generated `<filter>_eval` beside hand-written shaders (runtime/references/, embedded in the binary; each cites its source), on the same random points of a random {}-ish volume, after checking max |generated - reference| < {:.0e} of the data range on those points (a comparison that fails the check is marked INVALID and not timed). Ratio: generated ÷ reference evals/s (above 1: the generated code is faster). Ops: `boxforge::emit::count_ops` on the generated eval body; on the reference, the same count over its entry function and, per call site, its own helpers (a vec4 `dot` counts 7), calls to `<filter>_fetch` excluded on both sides; fetches: texel loads over the call tree (naga) plus filtered fetches.\n",
-        "64^3", REFERENCE_TOLERANCE
+        "## Generated vs hand-written\n\nThe generated `<filter>_eval` beside hand-written shaders (runtime/references/, embedded in the binary; each cites its source), on the same random points of a random 64^3-ish volume, after checking max |generated - reference| < {:.0e} of the data range on those points (a comparison that fails the check is marked INVALID and not timed). Ratio: generated ÷ reference evals/s (above 1: the generated code is faster). Ops: `boxforge::emit::count_ops` on the generated eval body; on the reference, the same count over its entry function and, per call site, its own helpers (a vec4 `dot` counts 7), calls to `<filter>_fetch` excluded on both sides; fetches: texel loads over the call tree (naga) plus filtered fetches.\n", REFERENCE_TOLERANCE
     );
     let _ = writeln!(s, "| generated | reference | fetches (gen / ref) | ops (gen / ref) | generated evals/s | reference evals/s | ratio median [min..max] | tie? | max \\|diff\\| (of range) | source |\n|---|---|---|---|---|---|---|---|---|---|");
     for x in &r.references {
@@ -1038,8 +1035,8 @@ pub fn markdown(r: &BenchReport, command: &str) -> String {
         };
         let _ = writeln!(
             s,
-            "| {} | {} (`{}`) | {} / {} | {} / {} | {} | {} | {}{} | {} | {} | {} |",
-            format!("`{}`", x.generated),
+            "| `{}` | {} (`{}`) | {} / {} | {} / {} | {} | {} | {}{} | {} | {} | {} |",
+            x.generated,
             x.reference,
             x.entry,
             x.generated_fetches,

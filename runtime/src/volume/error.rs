@@ -40,7 +40,7 @@ pub enum VolumeError {
     /// Dims with a zero entry, or too large to address.
     #[error("bad volume dims {}x{}x{}: {reason}", dims[0], dims[1], dims[2])]
     BadDims { dims: [usize; 3], reason: String },
-    /// The data vector does not have dims[0]*dims[1]*dims[2] entries.
+    /// The data vector does not have `dims[0]*dims[1]*dims[2]` entries.
     #[error("the volume has {len} values but dims {}x{}x{} need {expected}: build it with matching dims and data", dims[0], dims[1], dims[2])]
     DataLength { dims: [usize; 3], len: usize, expected: usize },
     /// Unknown raw sample type.
