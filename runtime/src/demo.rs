@@ -31,6 +31,8 @@ struct Row {
 
 pub fn run(out: &Path, size: u32, adapter: Option<&str>) -> Result<(), String> {
     let started = Instant::now();
+    let steps = crate::progress::Steps::new();
+    steps.step("generating the catalog into shaders-out/");
     // 1. The catalog.
     let command = "boxforge generate --all -o shaders-out";
     for name in boxforge::spec::catalog::names() {
@@ -39,15 +41,16 @@ pub fn run(out: &Path, size: u32, adapter: Option<&str>) -> Result<(), String> {
         let files = generated_files(&d, command, &ALL_LAYOUTS, &ALL_VARIANTS).map_err(|e| e.to_string())?;
         write_files(Path::new("shaders-out"), &files).map_err(|e| e.to_string())?;
     }
-    eprintln!("[demo] catalog generated into shaders-out/ ({:.1} s)", started.elapsed().as_secs_f64());
+    steps.println(&format!("[demo] catalog generated into shaders-out/ ({:.1} s)", started.elapsed().as_secs_f64()));
     // 2. Device and the real volume.
     let gpu = Gpu::new(adapter).map_err(|e| e.to_string())?;
-    eprintln!("[demo] device: {}", gpu.describe());
+    steps.println(&format!("[demo] device: {}", gpu.describe()));
     let mni = Volume::load_nifti(Path::new(MNI)).map_err(|e| format!("{e} (run the demo from the repository root)"))?;
     std::fs::create_dir_all(out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
     let mut rows = Vec::new();
     let mut images = Vec::new();
     for name in FILTERS {
+        steps.step(&format!("{name}: Marschner-Lobb and the MNI head"));
         let d = Derivation::new(&boxforge::spec::catalog::get(name).map_err(|e| e.to_string())?)
             .map_err(|e| e.to_string())?;
         let lat = d.filter.lattice.clone();
@@ -59,12 +62,12 @@ pub fn run(out: &Path, size: u32, adapter: Option<&str>) -> Result<(), String> {
         let ml_png = out.join(format!("ml_{name}.png"));
         render::write_png(&ml_png, frame.width, frame.height, &frame.rgba).map_err(|e| e.to_string())?;
         let (rms, max_err) = ml_error(&gpu, &d, &ml, 100_000)?;
-        eprintln!(
+        steps.println(&format!(
             "[demo] {name}: Marschner-Lobb {} samples, {:.1} ms/frame -> {}",
             ml.samples(),
             frame.ms_per_frame,
             ml_png.display()
-        );
+        ));
         images.push(frame);
         // The MNI head at a matched sample count (resampled on BCC/FCC).
         let head = scene::from_cartesian(&mni, &lat, Conversion::Resample).map_err(|e| e.to_string())?;
@@ -81,12 +84,12 @@ pub fn run(out: &Path, size: u32, adapter: Option<&str>) -> Result<(), String> {
         let frame = render::render(&gpu, &d, &head, Layout::Embedded, &opts).map_err(|e| e.to_string())?;
         let mni_png = out.join(format!("mni_{name}.png"));
         render::write_png(&mni_png, frame.width, frame.height, &frame.rgba).map_err(|e| e.to_string())?;
-        eprintln!(
+        steps.println(&format!(
             "[demo] {name}: MNI head {} samples, {:.1} ms/frame -> {}",
             head.samples(),
             frame.ms_per_frame,
             mni_png.display()
-        );
+        ));
         rows.push(Row {
             filter: name.to_string(),
             lattice: lat.name.clone(),
@@ -99,6 +102,7 @@ pub fn run(out: &Path, size: u32, adapter: Option<&str>) -> Result<(), String> {
         });
         images.push(frame);
     }
+    steps.finish();
     // Contact sheet: one column per filter, Marschner-Lobb above the head.
     let sheet = contact_sheet(&images, FILTERS.len(), size);
     let sheet_png = out.join("contact_sheet.png");

@@ -353,9 +353,10 @@ fn run(cli: Cli) -> Result<(), Failure> {
             }
             let gpu = Gpu::new(adapter.as_deref()).map_err(|e| Failure(e.to_string()))?;
             eprintln!("benchmarking on {}", gpu.describe());
-            let started = std::time::Instant::now();
-            let progress = |m: &str| eprintln!("[{:>6.1} s] {m}", started.elapsed().as_secs_f64());
-            let report = bench::run(&gpu, &o, &progress).map_err(Failure)?;
+            let steps = progress::Steps::new();
+            let report = bench::run(&gpu, &o, &|m: &str| steps.step(m));
+            steps.finish();
+            let report = report.map_err(Failure)?;
             let mut cmd = String::from("boxforge bench");
             if smoke {
                 cmd.push_str(" --smoke");

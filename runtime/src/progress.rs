@@ -37,3 +37,51 @@ fn draw_target() -> ProgressDrawTarget {
         ProgressDrawTarget::hidden()
     }
 }
+
+/// Progress through named steps of unknown count (bench, demo): a spinner
+/// with the current step on a terminal; elsewhere one timestamped line per
+/// step, so logs keep a record of where the time went.
+pub struct Steps {
+    spinner: Option<ProgressBar>,
+    started: std::time::Instant,
+}
+
+impl Steps {
+    pub fn new() -> Steps {
+        let spinner = std::io::stderr().is_terminal().then(|| {
+            let s = ProgressBar::new_spinner();
+            s.set_style(ProgressStyle::with_template("{spinner} [{elapsed:>4}] {msg}").expect("a valid template"));
+            s.enable_steady_tick(std::time::Duration::from_millis(120));
+            s
+        });
+        Steps { spinner, started: std::time::Instant::now() }
+    }
+
+    /// Starts a step.
+    pub fn step(&self, what: &str) {
+        match &self.spinner {
+            Some(s) => s.set_message(what.to_string()),
+            None => eprintln!("[{:>6.1} s] {what}", self.started.elapsed().as_secs_f64()),
+        }
+    }
+
+    /// A line that stays (a result), printed above the spinner.
+    pub fn println(&self, line: &str) {
+        match &self.spinner {
+            Some(s) => s.println(line),
+            None => eprintln!("{line}"),
+        }
+    }
+
+    pub fn finish(&self) {
+        if let Some(s) = &self.spinner {
+            s.finish_and_clear();
+        }
+    }
+}
+
+impl Default for Steps {
+    fn default() -> Steps {
+        Steps::new()
+    }
+}

@@ -214,6 +214,11 @@ pub fn render(
     let band = if o.progress { 32u32 } else { o.height };
     let frame = |report: bool| -> Result<f64, GpuError> {
         let start = Instant::now();
+        let bar = if report {
+            crate::progress::bar(o.height as u64, "rendering rows")
+        } else {
+            indicatif::ProgressBar::hidden()
+        };
         let mut y0 = 0u32;
         while y0 < o.height {
             let rows = band.min(o.height - y0);
@@ -232,13 +237,9 @@ pub fn render(
             gpu.queue.submit([enc.finish()]);
             gpu.wait()?;
             y0 += rows;
-            if report {
-                eprint!("\r  rendering {:>3}% ({:.1} s)", y0 * 100 / o.height, start.elapsed().as_secs_f64());
-            }
+            bar.set_position(y0 as u64);
         }
-        if report {
-            eprintln!();
-        }
+        bar.finish_and_clear();
         Ok(start.elapsed().as_secs_f64() * 1e3)
     };
     gpu.checked("raycast warm-up", || frame(o.progress))??;
