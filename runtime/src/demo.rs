@@ -15,7 +15,7 @@ use std::time::Instant;
 const FILTERS: [&str; 4] = ["cc_tricubic", "bcc7", "bcc8", "fcc6"];
 /// Marschner-Lobb budget: about 41^3 samples on every lattice.
 const ML_EDGE: f64 = 41.0;
-const MNI: &str = "data/mni152_t1_1mm.nii.gz";
+const MNI_FILE: &str = "mni152_t1_1mm.nii.gz";
 const MNI_ISO: f32 = 90.0;
 
 struct Row {
@@ -45,7 +45,9 @@ pub fn run(out: &Path, size: u32, adapter: Option<&str>) -> Result<(), String> {
     // 2. Device and the real volume.
     let gpu = Gpu::new(adapter).map_err(|e| e.to_string())?;
     steps.println(&format!("[demo] device: {}", gpu.describe()));
-    let mni = Volume::load_nifti(Path::new(MNI)).map_err(|e| format!("{e} (run the demo from the repository root)"))?;
+    let mni_path = boxforge_runtime::bench::data_file(MNI_FILE)
+        .ok_or_else(|| format!("the MNI head data/{MNI_FILE} is missing: run the demo from the repository root"))?;
+    let mni = Volume::load_nifti(&mni_path).map_err(|e| format!("{e} (run the demo from the repository root)"))?;
     std::fs::create_dir_all(out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
     let mut rows = Vec::new();
     let mut images = Vec::new();

@@ -23,6 +23,9 @@ pub struct Gpu {
     pub queue: wgpu::Queue,
     pub info: wgpu::AdapterInfo,
     pub timestamps: bool,
+    /// The first device error no error scope caught (wgpu would panic on it
+    /// otherwise); [`Gpu::wait`] and [`Gpu::read_buffer`] report it.
+    uncaptured: std::sync::Arc<std::sync::Mutex<Option<String>>>,
 }
 
 impl Gpu {
@@ -78,7 +81,17 @@ impl Gpu {
             ..Default::default()
         }))
         .map_err(|e| GpuError::Device(e.to_string()))?;
-        Ok(Gpu { adapter, device, queue, info, timestamps })
+        let uncaptured = std::sync::Arc::new(std::sync::Mutex::new(None));
+        let sink = uncaptured.clone();
+        device.on_uncaptured_error(std::sync::Arc::new(move |e: wgpu::Error| {
+            let mut slot = sink.lock().unwrap_or_else(|p| p.into_inner());
+            if slot.is_none() {
+                // One line: wgpu's messages carry a multi-line source chain.
+                *slot =
+                    Some(e.to_string().lines().map(str::trim).filter(|l| !l.is_empty()).collect::<Vec<_>>().join(": "));
+            }
+        }));
+        Ok(Gpu { adapter, device, queue, info, timestamps, uncaptured })
     }
 
     /// One line naming the adapter.
@@ -111,7 +124,7 @@ impl Gpu {
         let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
         let t = f();
         match pollster::block_on(scope.pop()) {
-            Some(e) => Err(GpuError::Runtime(format!("{what}: {e}"))),
+            Some(e) => Err(GpuError::Runtime(format!("{what}: {}", one_line(&e.to_string())))),
             None => Ok(t),
         }
     }
@@ -202,13 +215,33 @@ impl Gpu {
         rx.recv().map_err(|e| GpuError::Runtime(e.to_string()))?.map_err(|e| GpuError::Runtime(e.to_string()))?;
         let data = slice.get_mapped_range().map_err(|e| GpuError::Runtime(e.to_string()))?.to_vec();
         staging.unmap();
+        self.take_uncaptured()?;
         Ok(data)
     }
 
-    /// Waits for all submitted work.
+    /// Waits for all submitted work; reports a device error that no scope caught.
     pub fn wait(&self) -> Result<(), GpuError> {
-        self.device.poll(wgpu::PollType::wait_indefinitely()).map(|_| ()).map_err(|e| GpuError::Runtime(e.to_string()))
+        self.device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| GpuError::Runtime(e.to_string()))?;
+        self.take_uncaptured()
     }
+
+    /// The device's limits (what requests are checked against before any upload).
+    pub fn limits(&self) -> wgpu::Limits {
+        self.device.limits()
+    }
+
+    /// Err with the first uncaught device error, if one happened.
+    pub fn take_uncaptured(&self) -> Result<(), GpuError> {
+        match self.uncaptured.lock().unwrap_or_else(|p| p.into_inner()).take() {
+            Some(e) => Err(GpuError::Runtime(e)),
+            None => Ok(()),
+        }
+    }
+}
+
+/// wgpu's multi-line error chains as one line.
+fn one_line(s: &str) -> String {
+    s.lines().map(str::trim).filter(|l| !l.is_empty()).collect::<Vec<_>>().join(": ")
 }
 
 /// Parses and validates WGSL with naga; Err holds the rendered message.

@@ -7,6 +7,7 @@ pub mod gpu;
 pub mod prefilter;
 pub mod progress;
 pub mod render;
+pub mod request;
 pub mod scene;
 pub mod upload;
 pub mod verify;

@@ -9,6 +9,7 @@ use boxforge::spec;
 use boxforge_runtime::gpu::Gpu;
 use boxforge_runtime::progress;
 use boxforge_runtime::render::{self, RenderOptions};
+use boxforge_runtime::request;
 use boxforge_runtime::scene::{self, Conversion};
 
 mod demo;
@@ -124,7 +125,7 @@ enum Command {
         /// Resample a Cartesian volume on the lattice at a matched sample count.
         #[arg(long)]
         resample: bool,
-        #[arg(long, default_value_t = 0.5)]
+        #[arg(long, default_value_t = 0.5, allow_negative_numbers = true)]
         iso: f32,
         #[arg(long, default_value_t = 512)]
         size: u32,
@@ -137,7 +138,7 @@ enum Command {
         #[arg(long)]
         no_skip: bool,
         /// Ray step in cells.
-        #[arg(long, default_value_t = 0.25)]
+        #[arg(long, default_value_t = 0.25, allow_negative_numbers = true)]
         step: f32,
         #[arg(long, value_parser = ["embedded", "packed"], default_value = "embedded")]
         layout: String,
@@ -215,7 +216,32 @@ impl From<boxforge::Error> for Failure {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => {
+            use clap::error::ErrorKind;
+            if matches!(
+                e.kind(),
+                ErrorKind::DisplayHelp
+                    | ErrorKind::DisplayVersion
+                    | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand
+            ) {
+                e.exit(); // help text, with clap's exit code
+            }
+            // One line, like every other failure: clap's first line, and where to look.
+            let text = e.render().to_string();
+            let message: Vec<&str> = text
+                .lines()
+                .map(str::trim)
+                .skip_while(|l| l.is_empty())
+                .take_while(|l| !l.is_empty() && !l.starts_with("Usage:"))
+                .collect();
+            let message = message.join(" ");
+            let message = message.strip_prefix("error: ").unwrap_or(&message);
+            eprintln!("error: {message} (see boxforge --help)");
+            return ExitCode::from(2);
+        }
+    };
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(Failure(msg)) => {
@@ -252,6 +278,9 @@ fn run(cli: Cli) -> Result<(), Failure> {
             adapter,
             out,
         } => {
+            let (az, el) = parse_view(&view)?;
+            request::check_render_numbers(size, step, iso, az, el).map_err(Failure)?;
+            request::check_output_file(&out, "--out").map_err(Failure)?;
             let f = spec::resolve(&filter)?;
             let d = Derivation::new(&f)?;
             if d.facts.dim != 3 {
@@ -267,10 +296,14 @@ fn run(cli: Cli) -> Result<(), Failure> {
                     f.name, f.lattice.name, lat.name
                 )));
             }
-            let (az, el) = parse_view(&view)?;
             let conversion = if resample { Conversion::Resample } else { Conversion::Subset };
             let vol = scene::load(&volume, raw.as_deref(), &lat, conversion).map_err(|e| Failure(e.to_string()))?;
+            let (lo, hi) = vol.data.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
+            if let Some(w) = request::iso_warning(iso, lo, hi) {
+                eprintln!("{w}");
+            }
             let gpu = Gpu::new(adapter.as_deref()).map_err(|e| Failure(e.to_string()))?;
+            request::check_image_limits(size, &gpu.limits()).map_err(Failure)?;
             let opts = RenderOptions {
                 iso,
                 width: size,
@@ -336,7 +369,17 @@ fn run(cli: Cli) -> Result<(), Failure> {
                 }
                 return Ok(());
             }
-            let mut o = if smoke { bench::BenchOptions::smoke() } else { bench::BenchOptions::full() };
+            let external = match (wgsl, entry, like) {
+                (Some(w), Some(e), Some(l)) => Some(bench::External { wgsl: w, entry: e, like: l }),
+                (None, None, None) => None,
+                _ => return Err(Failure("--wgsl, --entry and --like go together: give all three".into())),
+            };
+            let mut o = match (&external, filters.is_empty()) {
+                // An external shader alone times only that pair.
+                (Some(x), true) => bench::BenchOptions::external_only(x.clone()),
+                _ if smoke => bench::BenchOptions::smoke(),
+                _ => bench::BenchOptions::full(),
+            };
             if !filters.is_empty() {
                 o.filters = filters;
             }
@@ -348,8 +391,12 @@ fn run(cli: Cli) -> Result<(), Failure> {
             if let Some(r) = runs {
                 o.runs = r.max(1);
             }
-            if let (Some(w), Some(e), Some(l)) = (wgsl, entry, like) {
-                o.external = Some(bench::External { wgsl: w, entry: e, like: l });
+            if external.is_some() {
+                o.external = external;
+            }
+            bench::check_inputs(&o).map_err(Failure)?;
+            if let Some(m) = &markdown {
+                request::check_output_file(m, "--markdown").map_err(Failure)?;
             }
             let gpu = Gpu::new(adapter.as_deref()).map_err(|e| Failure(e.to_string()))?;
             eprintln!("benchmarking on {}", gpu.describe());
@@ -382,8 +429,13 @@ fn run(cli: Cli) -> Result<(), Failure> {
             }
             Ok(())
         }
-        Command::Demo { out, size, adapter } => demo::run(&out, size, adapter.as_deref()).map_err(Failure),
+        Command::Demo { out, size, adapter } => {
+            request::check_render_numbers(size, 0.25, 0.5, 0.0, 0.0).map_err(Failure)?;
+            request::check_output_dir(&out, "--out").map_err(Failure)?;
+            demo::run(&out, size, adapter.as_deref()).map_err(Failure)
+        }
         Command::Verify { filter, layout, variant, form, bounds, fetch, points, seed, adapter, json } => {
+            request::check_points(points).map_err(Failure)?;
             let f = spec::resolve(&filter)?;
             let d = Derivation::new(&f)?;
             let gpu = boxforge_runtime::gpu::Gpu::new(adapter.as_deref()).map_err(|e| Failure(e.to_string()))?;
@@ -421,6 +473,9 @@ fn run(cli: Cli) -> Result<(), Failure> {
             }
         }
         Command::Generate { filters, all, out, layout, variant, form, check } => {
+            if !check {
+                request::check_output_dir(&out, "--out").map_err(Failure)?;
+            }
             let names = filter_names(filters.clone(), all)?;
             let mut resolved = names.iter().map(|n| spec::resolve(n)).collect::<Result<Vec<_>, _>>()?;
             if let Some(f) = &form {

@@ -366,15 +366,19 @@ fn cast_ray(
 }
 
 /// Writes RGBA8 pixels as a PNG.
+/// Writes an RGBA PNG atomically (a temporary file renamed over `path`), so
+/// an interrupted run leaves either the old image or the new one.
 pub fn write_png(path: &std::path::Path, width: u32, height: u32, rgba: &[u8]) -> std::io::Result<()> {
     if let Some(dir) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir)?;
     }
-    let file = std::io::BufWriter::new(std::fs::File::create(path)?);
-    let mut enc = png::Encoder::new(file, width, height);
-    enc.set_color(png::ColorType::Rgba);
-    enc.set_depth(png::BitDepth::Eight);
-    let mut w = enc.write_header().map_err(std::io::Error::other)?;
-    w.write_image_data(rgba).map_err(std::io::Error::other)?;
-    Ok(())
+    let mut bytes = Vec::new();
+    {
+        let mut enc = png::Encoder::new(&mut bytes, width, height);
+        enc.set_color(png::ColorType::Rgba);
+        enc.set_depth(png::BitDepth::Eight);
+        let mut w = enc.write_header().map_err(std::io::Error::other)?;
+        w.write_image_data(rgba).map_err(std::io::Error::other)?;
+    }
+    boxforge::build::output::write_atomic(path, &bytes).map_err(|e| std::io::Error::other(e.to_string()))
 }

@@ -31,11 +31,10 @@ pub fn load(
     conversion: Conversion,
 ) -> Result<LatticeVolume, VolumeError> {
     if let Some(n) = spec.strip_prefix("ml:") {
-        let n: f64 = n.parse().map_err(|_| VolumeError::BadRawSpec {
-            spec: spec.to_string(),
-            reason: "ml:N needs a number N (about N^3 samples), e.g. ml:41".into(),
-        })?;
-        let e = matched_edge(lattice, n * n * n);
+        let n = crate::request::parse_ml_n(n).map_err(|reason| VolumeError::BadDims { dims: [0; 3], reason })?;
+        let e = matched_edge(lattice, (n as f64).powi(3));
+        crate::request::check_samples([e, e, e], spec)
+            .map_err(|reason| VolumeError::BadDims { dims: [0; 3], reason })?;
         return LatticeVolume::marschner_lobb(lattice, [e, e, e]);
     }
     let path = Path::new(spec);

@@ -158,7 +158,32 @@ pub struct External {
     pub like: String,
 }
 
+/// A file of the repository's `data/` folder: looked up under the working
+/// directory, then where this binary was built from, so `bench` and `demo`
+/// also work when run outside the repository.
+pub fn data_file(name: &str) -> Option<std::path::PathBuf> {
+    let here = std::path::Path::new("data").join(name);
+    let built = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join("data").join(name);
+    [here, built].into_iter().find(|p| p.is_file())
+}
+
 impl BenchOptions {
+    /// Only the external shader against its generated module (what
+    /// `bench --wgsl F --entry E --like L` times unless asked for more).
+    pub fn external_only(external: External) -> BenchOptions {
+        BenchOptions {
+            filters: vec![],
+            naive: false,
+            naive_filters: vec![],
+            render_sizes: vec![],
+            mni: None,
+            quality: false,
+            references: false,
+            external: Some(external),
+            ..BenchOptions::full()
+        }
+    }
+
     pub fn full() -> BenchOptions {
         BenchOptions {
             filters: ["cc_trilinear", "cc_tricubic", "bcc_linear", "bcc7", "bcc8", "bcc12", "fcc6"]
@@ -169,7 +194,7 @@ impl BenchOptions {
             naive: true,
             naive_filters: ["bcc_linear", "bcc7", "fcc6"].map(String::from).to_vec(),
             render_sizes: vec![256, 512],
-            mni: Some("data/mni152_t1_1mm.nii.gz".into()),
+            mni: data_file("mni152_t1_1mm.nii.gz").map(|p| p.display().to_string()),
             quality: true,
             references: true,
             external: None,
@@ -461,7 +486,31 @@ struct Contender {
     job: Job,
 }
 
+/// Checks every input of a run (filters, the MNI file, an external shader)
+/// before the first measurement, so a bad one fails in a second instead of
+/// after minutes of timing. [`run`] calls it; the CLI calls it before it
+/// even opens a device.
+pub fn check_inputs(o: &BenchOptions) -> Result<(), String> {
+    for name in &o.filters {
+        derive(name)?;
+    }
+    if let Some(path) = &o.mni {
+        if !std::path::Path::new(path).is_file() {
+            return Err(format!(
+                "the MNI head {path} is missing: run from the repository root (it ships data/), or leave it out"
+            ));
+        }
+    }
+    if let Some(ext) = &o.external {
+        std::fs::read_to_string(&ext.wgsl)
+            .map_err(|x| format!("cannot read --wgsl {}: {x} (check the path)", ext.wgsl))?;
+        derive(&ext.like)?;
+    }
+    Ok(())
+}
+
 pub fn run(gpu: &Gpu, o: &BenchOptions, progress: &dyn Fn(&str)) -> Result<BenchReport, String> {
+    check_inputs(o)?;
     let mut rows = Vec::new();
     let mut gradient = Vec::new();
     let e = |x: GpuError| x.to_string();

@@ -38,7 +38,7 @@ pub enum VolumeError {
     )]
     RawSize { path: PathBuf, dims: [usize; 3], ty: &'static str, expected: u64, actual: u64 },
     /// Dims with a zero entry, or too large to address.
-    #[error("bad volume dims {}x{}x{}: {reason}", dims[0], dims[1], dims[2])]
+    #[error("{}{reason}", if dims.iter().all(|&d| d == 0) { String::new() } else { format!("bad volume dims {}x{}x{}: ", dims[0], dims[1], dims[2]) })]
     BadDims { dims: [usize; 3], reason: String },
     /// The data vector does not have `dims[0]*dims[1]*dims[2]` entries.
     #[error("the volume has {len} values but dims {}x{}x{} need {expected}: build it with matching dims and data", dims[0], dims[1], dims[2])]

@@ -1,0 +1,205 @@
+//! Every request is checked here before it reaches wgpu or the allocator:
+//! numbers must be finite and in range, sizes must fit the adapter's limits,
+//! and each refusal is one line that names the value, the limit and the fix.
+//! Nothing here needs a device (the limits are passed in), so the CLI's
+//! property test runs it on random input.
+
+/// Largest image edge `render` accepts (before the adapter's own limits).
+pub const MAX_IMAGE_EDGE: u32 = 16_384;
+/// Largest `N` of `ml:N` (about N^3 samples).
+pub const MAX_ML_N: u32 = 1024;
+/// Largest volume built on the host, in samples (1 GiB of f32).
+pub const MAX_SAMPLES: u64 = 1 << 28;
+/// Ray steps, in cells: below the minimum a frame would take hours.
+pub const STEP_RANGE: (f32, f32) = (0.01, 8.0);
+/// Most points `verify` evaluates (streamed in dispatches of
+/// [`crate::verify::POINTS_PER_DISPATCH`], so memory stays bounded).
+pub const MAX_POINTS: usize = 1_000_000_000;
+
+/// Image edge, ray step, iso-value and view angles of `render`.
+pub fn check_render_numbers(size: u32, step: f32, iso: f32, azimuth: f32, elevation: f32) -> Result<(), String> {
+    if size == 0 || size > MAX_IMAGE_EDGE {
+        return Err(format!("--size {size}: the image edge must be between 1 and {MAX_IMAGE_EDGE} pixels"));
+    }
+    if !step.is_finite() || step < STEP_RANGE.0 || step > STEP_RANGE.1 {
+        return Err(format!(
+            "--step {step}: the ray step must be a number of cells between {} and {} (e.g. --step 0.25)",
+            STEP_RANGE.0, STEP_RANGE.1
+        ));
+    }
+    if !iso.is_finite() {
+        return Err(format!("--iso {iso}: the iso-value must be a finite number (e.g. --iso 0.5)"));
+    }
+    if !azimuth.is_finite() || !elevation.is_finite() {
+        return Err(format!(
+            "--view {azimuth},{elevation}: the view angles must be finite degrees (e.g. --view 30,25)"
+        ));
+    }
+    if elevation.abs() > 90.0 {
+        return Err(format!("--view {azimuth},{elevation}: the elevation must be within -90..90 degrees"));
+    }
+    Ok(())
+}
+
+/// The image against the adapter: its buffer and the workgroup counts.
+pub fn check_image_limits(size: u32, limits: &wgpu::Limits) -> Result<(), String> {
+    let bytes = size as u64 * size as u64 * 4;
+    let binding = limits.max_storage_buffer_binding_size as u64;
+    if bytes > binding.min(limits.max_buffer_size) {
+        return Err(format!(
+            "--size {size}: the {size}x{size} image needs {bytes} bytes, over this adapter's storage buffer limit of {} bytes; use a smaller --size",
+            binding.min(limits.max_buffer_size)
+        ));
+    }
+    if size.div_ceil(8) > limits.max_compute_workgroups_per_dimension {
+        return Err(format!(
+            "--size {size}: over this adapter's {} workgroups per dimension; use a smaller --size",
+            limits.max_compute_workgroups_per_dimension
+        ));
+    }
+    Ok(())
+}
+
+/// `--points` of `verify`.
+pub fn check_points(points: usize) -> Result<(), String> {
+    if points == 0 {
+        return Err("--points 0: verify needs at least one point (default 100000)".into());
+    }
+    if points > MAX_POINTS {
+        return Err(format!("--points {points}: at most {MAX_POINTS} points per run; run several seeds instead"));
+    }
+    Ok(())
+}
+
+/// `N` of `ml:N`, parsed and bounded.
+pub fn parse_ml_n(text: &str) -> Result<u32, String> {
+    let n: i64 = text.trim().parse().map_err(|_| {
+        format!("ml:{text}: N must be a whole number of samples per edge (about N^3 samples), e.g. ml:41")
+    })?;
+    if n < 2 || n > MAX_ML_N as i64 {
+        return Err(format!("ml:{text}: N must be between 2 and {MAX_ML_N} (about N^3 samples), e.g. ml:41"));
+    }
+    Ok(n as u32)
+}
+
+/// Samples of a volume with these dimensions, refused past [`MAX_SAMPLES`]
+/// (checked arithmetic, so no dimension overflows the count).
+pub fn check_samples(dims: [usize; 3], what: &str) -> Result<u64, String> {
+    let n = dims.iter().try_fold(1u64, |acc, &d| acc.checked_mul(d as u64));
+    match n {
+        Some(n) if n <= MAX_SAMPLES => Ok(n),
+        _ => Err(format!(
+            "{what}: {}x{}x{} samples is over the cap of {MAX_SAMPLES} samples (1 GiB of f32); use a smaller ml:N or --resample a smaller volume",
+            dims[0], dims[1], dims[2]
+        )),
+    }
+}
+
+/// A volume against the adapter: embedded textures by their edge, packed
+/// buffers by their bytes.
+pub fn check_volume_limits(dims: [usize; 3], bytes: u64, embedded: bool, limits: &wgpu::Limits) -> Result<(), String> {
+    if embedded {
+        let max = limits.max_texture_dimension_3d as usize;
+        if dims.iter().any(|&d| d > max) {
+            return Err(format!(
+                "the volume is {}x{}x{} samples, over this adapter's 3D texture limit of {max} per edge; use --layout packed, --resample or a smaller ml:N",
+                dims[0], dims[1], dims[2]
+            ));
+        }
+    } else {
+        let max = (limits.max_storage_buffer_binding_size as u64).min(limits.max_buffer_size);
+        if bytes > max {
+            return Err(format!(
+                "the packed volume needs {bytes} bytes, over this adapter's storage buffer limit of {max} bytes; use --resample or a smaller ml:N"
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// An output file path: not a directory, and its folder is not a file (so a
+/// render fails before minutes of work rather than after).
+pub fn check_output_file(path: &std::path::Path, flag: &str) -> Result<(), String> {
+    if path.is_dir() {
+        return Err(format!(
+            "{flag} {}: is a directory; give a file name, e.g. {}/out.png",
+            path.display(),
+            path.display()
+        ));
+    }
+    let mut dir = path.parent();
+    while let Some(d) = dir.filter(|d| !d.as_os_str().is_empty()) {
+        if d.exists() {
+            if !d.is_dir() {
+                return Err(format!("{flag} {}: {} is a file, not a folder", path.display(), d.display()));
+            }
+            let probe = d.join(format!(".boxforge-write-test-{}", std::process::id()));
+            return match std::fs::write(&probe, b"") {
+                Ok(()) => {
+                    let _ = std::fs::remove_file(&probe);
+                    Ok(())
+                }
+                Err(e) => Err(format!("{flag} {}: cannot write in {}: {e}", path.display(), d.display())),
+            };
+        }
+        dir = d.parent();
+    }
+    Ok(())
+}
+
+/// An output folder: not a file, and writable where it exists.
+pub fn check_output_dir(dir: &std::path::Path, flag: &str) -> Result<(), String> {
+    if dir.exists() && !dir.is_dir() {
+        return Err(format!("{flag} {}: is a file, not a folder", dir.display()));
+    }
+    check_output_file(&dir.join("probe"), flag)
+}
+
+/// A warning (not an error) when the iso-value lies outside the data.
+pub fn iso_warning(iso: f32, lo: f32, hi: f32) -> Option<String> {
+    (iso < lo || iso > hi).then(|| {
+        format!("warning: --iso {iso} is outside the volume's values [{lo}, {hi}]: the image will show no surface")
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn numbers_out_of_range_are_refused_with_the_flag_named() {
+        assert!(check_render_numbers(512, 0.25, 0.5, 30.0, 25.0).is_ok());
+        for (size, step, iso, az, el, flag) in [
+            (0, 0.25, 0.5, 30.0, 25.0, "--size"),
+            (100_000, 0.25, 0.5, 30.0, 25.0, "--size"),
+            (512, 0.0, 0.5, 30.0, 25.0, "--step"),
+            (512, f32::NAN, 0.5, 30.0, 25.0, "--step"),
+            (512, 0.25, f32::NAN, 30.0, 25.0, "--iso"),
+            (512, 0.25, f32::INFINITY, 30.0, 25.0, "--iso"),
+            (512, 0.25, 0.5, f32::NAN, 25.0, "--view"),
+            (512, 0.25, 0.5, 30.0, 120.0, "--view"),
+        ] {
+            let e = check_render_numbers(size, step, iso, az, el).unwrap_err();
+            assert!(e.starts_with(flag), "{e}");
+        }
+        assert!(check_points(0).is_err() && check_points(20_000_000).is_ok());
+        assert_eq!(parse_ml_n("41"), Ok(41));
+        for bad in ["-3", "0", "1", "100000", "x", "4.5", ""] {
+            assert!(parse_ml_n(bad).is_err(), "{bad}");
+        }
+        assert!(check_samples([usize::MAX, 2, 2], "v").is_err(), "no overflow");
+        assert!(check_samples([64, 64, 64], "v").is_ok());
+        assert!(iso_warning(2.0, 0.0, 1.0).is_some() && iso_warning(0.5, 0.0, 1.0).is_none());
+    }
+
+    #[test]
+    fn limits_are_checked_before_any_upload() {
+        let limits = wgpu::Limits::downlevel_defaults();
+        assert!(check_image_limits(256, &limits).is_ok());
+        assert!(check_image_limits(16_384, &limits).is_err());
+        let edge = limits.max_texture_dimension_3d as usize + 1;
+        assert!(check_volume_limits([edge, 4, 4], 0, true, &limits).is_err());
+        assert!(check_volume_limits([64, 64, 64], 64 * 64 * 64 * 4, true, &limits).is_ok());
+        assert!(check_volume_limits([8, 8, 8], u64::MAX, false, &limits).is_err());
+    }
+}
