@@ -44,7 +44,7 @@ pub fn check_render_numbers(size: u32, step: f32, iso: f32, azimuth: f32, elevat
 /// The image against the adapter: its buffer and the workgroup counts.
 pub fn check_image_limits(size: u32, limits: &wgpu::Limits) -> Result<(), String> {
     let bytes = size as u64 * size as u64 * 4;
-    let binding = limits.max_storage_buffer_binding_size as u64;
+    let binding = limits.max_storage_buffer_binding_size;
     if bytes > binding.min(limits.max_buffer_size) {
         return Err(format!(
             "--size {size}: the {size}x{size} image needs {bytes} bytes, over this adapter's storage buffer limit of {} bytes; use a smaller --size",
@@ -107,7 +107,7 @@ pub fn check_volume_limits(dims: [usize; 3], bytes: u64, embedded: bool, limits:
             ));
         }
     } else {
-        let max = (limits.max_storage_buffer_binding_size as u64).min(limits.max_buffer_size);
+        let max = limits.max_storage_buffer_binding_size.min(limits.max_buffer_size);
         if bytes > max {
             return Err(format!(
                 "the packed volume needs {bytes} bytes, over this adapter's storage buffer limit of {max} bytes; use --resample or a smaller ml:N"
