@@ -400,10 +400,6 @@ fn run(cli: Cli) -> Result<(), Failure> {
             }
             let gpu = Gpu::new(adapter.as_deref()).map_err(|e| Failure(e.to_string()))?;
             eprintln!("benchmarking on {}", gpu.describe());
-            let steps = progress::Steps::new();
-            let report = bench::run(&gpu, &o, &|m: &str| steps.step(m));
-            steps.finish();
-            let report = report.map_err(Failure)?;
             let mut cmd = String::from("boxforge bench");
             if smoke {
                 cmd.push_str(" --smoke");
@@ -413,17 +409,34 @@ fn run(cli: Cli) -> Result<(), Failure> {
             }
             if let Some(m) = &markdown {
                 cmd.push_str(&format!(" --markdown {}", m.display()));
-                // Keep the derivation section (`bench --derive`) of an existing file.
-                let old = std::fs::read_to_string(m).unwrap_or_default();
-                let mut text = bench::markdown(&report, &cmd);
-                if let Some(section) = bench::derive::existing_section(&old) {
-                    text = format!("{}\n\n{section}\n", text.trim_end());
+            }
+            // Keep the derivation section (`bench --derive`) of an existing file.
+            let old = markdown.as_ref().and_then(|m| std::fs::read_to_string(m).ok()).unwrap_or_default();
+            let write_markdown = |report: &bench::BenchReport| -> Result<(), Failure> {
+                if let Some(m) = &markdown {
+                    let mut text = bench::markdown(report, &cmd);
+                    if let Some(section) = bench::derive::existing_section(&old) {
+                        text = format!("{}\n\n{section}\n", text.trim_end());
+                    }
+                    boxforge::build::output::write_atomic(m, text.as_bytes())?;
                 }
-                boxforge::build::output::write_atomic(m, text.as_bytes())?;
+                Ok(())
+            };
+            let steps = progress::Steps::new();
+            // Every snapshot is written as it comes: an interrupted run keeps what it measured.
+            let report = bench::run_with(&gpu, &o, &|m: &str| steps.step(m), &|partial| {
+                if let Err(Failure(e)) = write_markdown(partial) {
+                    steps.println(&format!("warning: could not save the partial report: {e}"));
+                }
+            });
+            steps.finish();
+            let report = report.map_err(Failure)?;
+            if let Some(m) = &markdown {
+                write_markdown(&report)?;
                 eprintln!("wrote {}", m.display());
             }
             if json {
-                println!("{}", serde_json::to_string(&report).unwrap());
+                println!("{}", serde_json::to_string(&report).expect("the report serialises"));
             } else if markdown.is_none() {
                 println!("{}", bench::markdown(&report, &cmd));
             }
