@@ -4,6 +4,7 @@
 
 use std::path::PathBuf;
 
+/// Everything the generator can refuse; each message names the fix.
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
     #[error("cannot read {path}: {source} (check the path and its permissions)")]
@@ -54,4 +55,5 @@ pub enum Error {
     InvalidWgsl { file: PathBuf, message: String },
 }
 
+/// The generator's result type.
 pub type Result<T> = std::result::Result<T, Error>;

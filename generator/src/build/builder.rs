@@ -209,11 +209,16 @@ impl Builder {
     /// paths and the emitter's counts (see [`Generated`]); with no filters
     /// it writes nothing and returns empty lists.
     ///
-    /// Errors: an unknown catalog name ([`Error::UnknownFilter`]), an
-    /// unreadable or invalid spec file ([`Error::Io`], [`Error::Spec`] and
-    /// the validation errors), no output directory ([`Error::OutDir`]), two
-    /// filters with the same name, or a module naga rejects or that is not
-    /// branch-free in the fast variant ([`Error::InvalidWgsl`]).
+    /// # Errors
+    ///
+    /// [`Error::OutDir`] without an output directory; [`Error::UnknownFilter`]
+    /// for an unknown catalog name; an unreadable or invalid spec file
+    /// ([`Error::Io`], [`Error::Spec`] and the validation errors of
+    /// [`Filter::from_file`], also when [`Builder::caps`] re-validates);
+    /// [`Error::Spec`] for two filters with the same name; the cap and
+    /// prefilter errors of [`Derivation::new`]; the errors of [`emit`];
+    /// [`Error::InvalidWgsl`] for a module naga rejects or that is not
+    /// branch-free in the fast variant; [`Error::Io`] when writing fails.
     pub fn generate(self) -> Result<Generated> {
         let out_dir = match &self.out_dir {
             Some(d) => d.clone(),

@@ -9,6 +9,11 @@ use std::path::{Path, PathBuf};
 
 /// Writes `bytes` to `path` via a temporary file in the same directory and a
 /// rename, so readers never see a half-written file.
+///
+/// # Errors
+///
+/// [`Error::Io`] (naming the directory, temporary file or target) when creating
+/// the directory, writing or renaming fails.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
     std::fs::create_dir_all(dir).map_err(|source| Error::Io { path: dir.to_path_buf(), source })?;
@@ -21,6 +26,10 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
 /// The files generated for one filter: the WGSL modules for every requested
 /// (layout, variant), then the JSON and Markdown reports (with the shaders'
 /// counts): (file name, contents).
+///
+/// # Errors
+///
+/// Every error of [`emit`] ([`Error::EmitCap`], [`Error::Spec`]).
 pub fn generated_files(
     d: &Derivation,
     command: &str,
@@ -43,6 +52,7 @@ pub fn generated_files(
 
 /// Every layout and variant.
 pub const ALL_LAYOUTS: [Layout; 2] = [Layout::Embedded, Layout::Packed];
+/// Both code shapes, for generating every file.
 pub const ALL_VARIANTS: [Variant; 2] = [Variant::Fast, Variant::Naive];
 
 /// The reports alone (no shaders).
@@ -61,6 +71,10 @@ fn report_files_with(d: &Derivation, command: &str, shaders: Vec<EmitStats>) -> 
 }
 
 /// Writes every file of `files` into `dir`; returns the paths written.
+///
+/// # Errors
+///
+/// [`Error::Io`] from [`write_atomic`]; files before the failing one stay written.
 pub fn write_files(dir: &Path, files: &[(String, String)]) -> Result<Vec<PathBuf>> {
     files
         .iter()

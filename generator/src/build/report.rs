@@ -8,6 +8,7 @@ use crate::math::linalg::{IVec, QVec};
 use serde::Serialize;
 use std::fmt::Write;
 
+/// Everything `inspect` shows about one filter and `generate` writes next to its shaders.
 #[derive(Serialize)]
 pub struct Report {
     pub name: String,
@@ -53,6 +54,7 @@ pub struct Report {
 /// polynomials; beyond it the JSON would run to hundreds of megabytes.
 pub const DETAIL_LIMIT_POLYNOMIALS: usize = 4096;
 
+/// How big the derivation was expected to be and was.
 #[derive(Clone, Debug, Serialize)]
 pub struct WorkReport {
     pub estimate: crate::derive::Estimate,
@@ -111,6 +113,7 @@ fn linear_fetch_report(d: &Derivation) -> Option<LinearFetchReport> {
     })
 }
 
+/// How the fast shader locates a point and what one evaluation costs.
 #[derive(Serialize)]
 pub struct EvaluationReport {
     pub locate: String,
@@ -122,30 +125,35 @@ pub struct EvaluationReport {
     pub fetch_order: Vec<IVec>,
 }
 
+/// One exact weight at a lattice offset (a prefilter tap or a BB weight).
 #[derive(Serialize)]
 pub struct Weight {
     pub offset: IVec,
     pub w: Q,
 }
 
+/// One BB coefficient as a weighted sum of stencil samples.
 #[derive(Serialize)]
 pub struct BbCoefficient {
     pub index: Vec<u32>,
     pub weights: Vec<Weight>,
 }
 
+/// One term c * u^exponent of a power-form polynomial.
 #[derive(Serialize)]
 pub struct Monomial {
     pub exponent: Vec<u32>,
     pub c: Q,
 }
 
+/// The power-form polynomial of one stencil offset.
 #[derive(Serialize)]
 pub struct PowerPiece {
     pub offset: IVec,
     pub terms: Vec<Monomial>,
 }
 
+/// One reference piece: its cell, stencil and exact forms.
 #[derive(Serialize)]
 pub struct ReferenceReport {
     pub corner: IVec,
@@ -158,6 +166,7 @@ pub struct ReferenceReport {
     pub power: Vec<PowerPiece>,
 }
 
+/// One evaluation cell and its map onto its reference piece.
 #[derive(Serialize)]
 pub struct CellReport {
     pub class: usize,
@@ -168,6 +177,7 @@ pub struct CellReport {
 }
 
 impl Report {
+    /// Collects the report from a derivation (coefficients only up to [`DETAIL_LIMIT_POLYNOMIALS`]).
     pub fn new(d: &Derivation) -> Report {
         let f = &d.filter;
         let arr = &d.arrangement;
@@ -273,13 +283,19 @@ impl Report {
 
     /// Deterministic compact JSON (pretty printing makes bcc12 megabytes).
     pub fn to_json(&self) -> String {
-        serde_json::to_string(self).expect("report serialises")
+        serde_json::to_string(self).expect(
+            "the report is plain data (strings, numbers, vectors, no maps with non-string keys): it always serialises",
+        )
     }
 
     /// JSON with a leading `generated_by` key naming the command.
     pub fn to_json_with_header(&self, command: &str) -> String {
         let body = self.to_json();
-        format!("{{\"generated_by\":{},{}", serde_json::to_string(command).unwrap(), &body[1..])
+        format!(
+            "{{\"generated_by\":{},{}",
+            serde_json::to_string(command).expect("a string always serialises to JSON"),
+            &body[1..]
+        )
     }
 
     /// A Markdown rendering for humans (checked into shaders-out/).

@@ -20,6 +20,8 @@ pub struct KnotFamily {
 }
 
 impl KnotFamily {
+    /// The family of knot planes with this normal, shifted by the centre and
+    /// repeating with the lattice.
     pub fn new(normal: &[i64], lattice: &Lattice, center: &[Q]) -> KnotFamily {
         let period = lattice.generators.iter().fold(0, |g, col| crate::math::exact::gcd(g, dot_i(normal, col)));
         let g = Q::int(period);
@@ -63,6 +65,7 @@ pub struct Cell {
     pub interior: QVec,
 }
 
+/// The evaluation cells: every cube class cut by the knot planes that cross it.
 #[derive(Clone, Debug)]
 pub struct Arrangement {
     pub families: Vec<KnotFamily>,
@@ -77,6 +80,7 @@ pub struct Arrangement {
 }
 
 impl Arrangement {
+    /// Builds the frame and cuts its cells (see [`Frame`] to count them first).
     pub fn new(facts: &SplineFacts, lattice: &Lattice) -> Arrangement {
         Arrangement::from_frame(Frame::new(facts, lattice), lattice)
     }
@@ -193,6 +197,7 @@ pub struct Frame {
 }
 
 impl Frame {
+    /// The knot families, grid offset and cube classes of a spline on a lattice.
     pub fn new(facts: &SplineFacts, lattice: &Lattice) -> Frame {
         let s = facts.dim;
         let families: Vec<KnotFamily> =
@@ -238,6 +243,10 @@ impl Frame {
 
     /// [`Frame::count_cells`], or `Err(lower bound)` as soon as a lower
     /// bound exceeds `budget` (a refusal then costs a fraction of the count).
+    ///
+    /// # Errors
+    ///
+    /// `Err(lower bound)` when the count exceeds `budget` (not a crate error).
     pub fn count_cells_within(&self, budget: usize) -> Result<usize, usize> {
         let mut total = 0usize;
         for ci in 0..self.classes.len() {
@@ -269,7 +278,9 @@ fn cut_recursively(p: Polytope, planes: &[(QVec, Q)], out: &mut Vec<Polytope>) {
     }
     let mid = relevant.len() / 2;
     let (n, a) = relevant[mid];
-    let (lo, hi) = p.split(n, a).expect("a relevant plane cuts");
+    let (lo, hi) = p.split(n, a).expect(
+        "the plane is in `relevant` because is_cut_by found vertices on both sides, the condition split checks",
+    );
     let rest: Vec<(QVec, Q)> =
         relevant.iter().enumerate().filter(|(i, _)| *i != mid).map(|(_, x)| (*x).clone()).collect();
     cut_recursively(lo, &rest, out);

@@ -6,6 +6,7 @@ use crate::math::linalg::{solve, QVec};
 use crate::math::poly::{Monomials, Poly};
 use crate::math::scaled::{mul_add, ratio, Scaled};
 
+/// The BB coefficients of a simplicial piece as weights of the stencil samples.
 #[derive(Clone, Debug)]
 pub struct BbForm {
     pub degree: usize,
@@ -24,7 +25,8 @@ impl BbForm {
         let lam = Monomials::get(s + 1, degree);
         let indices: Vec<Vec<u32>> =
             lam.exps.iter().filter(|e| e.iter().sum::<u32>() as usize == degree).cloned().collect();
-        let idx_pos: Vec<usize> = indices.iter().map(|e| lam.index_of(e).unwrap()).collect();
+        let idx_pos: Vec<usize> =
+            indices.iter().map(|e| lam.index_of(e).expect("`indices` are drawn from lam's own exponents")).collect();
         // u_j = sum_i lambda_i v_{i,j}; 1 = sum_i lambda_i.
         let forms: Vec<QVec> = (0..s).map(|j| vertices.iter().map(|v| v[j].clone()).collect()).collect();
         let ones: QVec = vec![Q::one(); s + 1];
@@ -67,7 +69,8 @@ impl BbForm {
         let rows: Vec<QVec> =
             (0..s).map(|j| (1..=s).map(|i| &self.vertices[i][j] - &self.vertices[0][j]).collect()).collect();
         let rhs: QVec = (0..s).map(|j| &u[j] - &self.vertices[0][j]).collect();
-        let mu = solve(&rows, &rhs).expect("simplex");
+        let mu = solve(&rows, &rhs)
+            .expect("a simplex's vertices are affinely independent, so its edge matrix is invertible");
         let mut lam = vec![Q::one() - mu.iter().cloned().sum::<Q>()];
         lam.extend(mu);
         lam

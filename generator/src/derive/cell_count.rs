@@ -35,6 +35,14 @@ pub fn count_regions(planes: &[Plane], lo: &[Q]) -> usize {
 /// exceeds `budget`: every term of the count is non-negative, so 1 + m and
 /// then 1 + m + the line terms bound it from below before the costly point
 /// terms (O(lines x planes)) are computed.
+///
+/// # Errors
+///
+/// `Err(lower bound)` when the count exceeds `budget` (not a crate error).
+///
+/// # Panics
+///
+/// Unless `lo` is 2D or 3D.
 pub fn count_regions_within(planes: &[Plane], lo: &[Q], budget: usize) -> Result<usize, usize> {
     if 1 + planes.len() > budget {
         return Err(1 + planes.len());
@@ -97,10 +105,13 @@ fn count_3d(planes: &[Plane], lo: &[Q], budget: usize) -> Result<usize, usize> {
             if direction.iter().find(|&&x| x != 0).is_some_and(|&x| x < 0) {
                 direction.iter_mut().for_each(|x| *x = -*x);
             }
-            let axis = direction.iter().position(|&x| x != 0).expect("non-zero direction");
+            let axis =
+                direction.iter().position(|&x| x != 0).expect("primitive returned Some, so the direction is non-zero");
             let mut e = vec![0; 3];
             e[axis] = 1;
-            let point = meet(&[&planes[i], &planes[j], &(e, Q::zero())]).expect("the direction crosses x_axis = 0");
+            let point = meet(&[&planes[i], &planes[j], &(e, Q::zero())]).expect(
+                "the normals and e_axis are independent (det = direction[axis] != 0): the planes meet in a point",
+            );
             lines.entry(LineKey { direction, point }).or_default().extend([i, j]);
         }
     }

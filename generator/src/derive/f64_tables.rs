@@ -14,6 +14,7 @@ pub struct F64Tables {
     pub references: Vec<std::sync::OnceLock<F64Reference>>,
 }
 
+/// f64 copy of one reference piece's polynomials (one per stencil sample).
 #[derive(Clone, Debug)]
 pub struct F64Reference {
     pub exps: Vec<Vec<u32>>,
@@ -22,6 +23,7 @@ pub struct F64Reference {
 }
 
 impl Derivation {
+    /// The f64 tables, built on first use.
     pub fn f64_tables(&self) -> &F64Tables {
         self.f64_cache.get_or_init(|| F64Tables {
             offset: self.arrangement.grid_offset.iter().map(|q| q.to_f64()).collect(),

@@ -235,6 +235,10 @@ impl Factorisation {
     }
 
     /// Exact evaluation (the CPU mirror of the emitted code).
+    ///
+    /// # Panics
+    ///
+    /// If a coordinate of `x` is beyond the i64 range.
     pub fn eval_exact(&self, x: &[Q], data: &dyn Fn(&[i64]) -> Q) -> Q {
         let s = self.axes.len();
         let mut total = Q::zero();
@@ -247,7 +251,8 @@ impl Factorisation {
                 let si = (&x[i] - &Q::int(v[i])) / Q::int(a.step) + Q::frac(a.order as i64, 2);
                 let f = si.floor();
                 let t = &si - &f;
-                base[i] = v[i] + a.step * f.to_i64().expect("finite point");
+                base[i] =
+                    v[i] + a.step * f.to_i64().expect("x is within the i64 range (the precondition of eval_exact)");
                 weights.push(a.pieces.iter().map(|p| p.iter().rev().fold(Q::zero(), |acc, c| acc * &t + c)).collect());
             }
             let orders: Vec<usize> = self.axes.iter().map(|a| a.order).collect();

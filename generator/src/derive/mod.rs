@@ -63,6 +63,7 @@ pub struct CellMap {
 }
 
 impl CellMap {
+    /// g(x) = R x + t.
     pub fn apply(&self, x: &[Q]) -> QVec {
         let r: Vec<QVec> = self.rotation.iter().map(|row| to_q(row)).collect();
         let y = mat_vec_q(&r, x);
@@ -103,6 +104,8 @@ pub struct Forms {
     pub bb: Option<BbForm>,
 }
 
+/// Everything derived exactly for one filter, from which the evaluators and
+/// the emitter work.
 #[derive(Clone, Debug)]
 pub struct Derivation {
     pub filter: Filter,
@@ -121,6 +124,13 @@ pub struct Derivation {
 }
 
 impl Derivation {
+    /// Derives everything for a validated filter, refusing early (before the
+    /// costly work) when it would exceed the filter's caps.
+    ///
+    /// # Errors
+    ///
+    /// [`Error::StencilCap`], [`Error::CellCap`] and [`Error::PolynomialCap`] when a
+    /// cap is exceeded, and [`Error::Prefilter`] from [`derive_prefilter`].
     pub fn new(filter: &Filter) -> Result<Derivation> {
         let facts = SplineFacts::new(filter);
         let lattice = &filter.lattice;
@@ -236,6 +246,7 @@ impl Derivation {
         (0..z.len()).map(|i| &self.arrangement.grid_offset[i] + &Q::int(z[i])).collect()
     }
 
+    /// The largest stencil of any reference piece (0 without pieces).
     pub fn max_stencil(&self) -> usize {
         self.references.iter().map(|r| r.stencil.len()).max().unwrap_or(0)
     }
@@ -287,7 +298,9 @@ fn cell_maps(arr: &Arrangement, lattice: &Lattice, group: &[SignedPerm]) -> Vec<
                 let (a, b) = (mat_vec_q(&rq, &lo), mat_vec_q(&rq, &hi));
                 let img_lo: QVec = a.iter().zip(&b).map(|(x, y)| x.clone().min(y.clone())).collect();
                 let zq = sub_q(&img_lo, o);
-                let zi: IVec = zq.iter().map(|x| x.to_i64().expect("grid-preserving symmetry")).collect();
+                // The group keeps the grid (R o - o is integral, see Derivation::new).
+                let zi: IVec =
+                    zq.iter().map(|x| x.to_i64().expect("a grid-keeping R maps corners to integers")).collect();
                 let (ci, l) = arr.locate_cube(lattice, &zi);
                 let t: IVec = l.iter().map(|x| -x).collect();
                 let tq = to_q(&t);

@@ -20,6 +20,7 @@ use crate::math::poly::{Monomials, Poly};
 use crate::math::scaled::{integer, lcm, mul_add, ratio, small, Scaled};
 use std::sync::Arc;
 
+/// The integer tables of every cone term, for the fast path of local pieces.
 #[derive(Debug)]
 pub struct PieceTables {
     nvars: usize,

@@ -40,6 +40,7 @@ pub struct PpForm {
 }
 
 impl PpForm {
+    /// The PP-form of the spline, scaled by |det G| (with integer tables when they fit).
     pub fn new(facts: &SplineFacts, lattice_det: i64) -> PpForm {
         let s = facts.dim;
         // Flipped distinct directions (first non-zero entry positive: all lie in
@@ -220,7 +221,9 @@ fn partial_fractions(dirs: &[IVec], mult: &[u32], s: usize) -> Vec<ConeTerm> {
         .map(|(exps, c)| {
             let basis: Vec<usize> = (0..n).filter(|&k| exps[k] > 0).collect();
             let rows: Vec<QVec> = (0..s).map(|r| basis.iter().map(|&k| Q::int(dirs[k][r])).collect()).collect();
-            let inv = inverse(&rows).expect("partial fractions end in bases");
+            let inv = inverse(&rows).expect(
+                "every support met spans R^s (a circuit step drops a replaceable direction): s of them are a basis",
+            );
             let det = crate::math::linalg::det(&rows).abs();
             let powers: Vec<u32> = basis.iter().map(|&k| exps[k] - 1).collect();
             let mut coef = c / &det;
@@ -245,9 +248,14 @@ fn circuit(dirs: &[IVec], support: &[usize], s: usize) -> (usize, Vec<(usize, Q)
             basis.push(k);
         }
     }
-    let extra = support.iter().copied().find(|k| !basis.contains(k)).expect("more than s directions");
+    let extra = support
+        .iter()
+        .copied()
+        .find(|k| !basis.contains(k))
+        .expect("circuit is called on spanning supports of more than s directions, and the basis holds only s");
     let rows: Vec<QVec> = (0..s).map(|r| basis.iter().map(|&b| Q::int(dirs[b][r])).collect()).collect();
-    let lambda = solve(&rows, &to_q(&dirs[extra])).expect("basis");
+    let lambda = solve(&rows, &to_q(&dirs[extra]))
+        .expect("the basis is s independent directions of a spanning support: its matrix is invertible");
     let nu = basis.iter().zip(lambda).filter(|(_, l)| !l.is_zero()).map(|(&b, l)| (b, l)).collect();
     (extra, nu)
 }

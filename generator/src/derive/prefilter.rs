@@ -59,6 +59,10 @@ impl Prefilter {
 /// so q must be even; every point group of a box spline contains -I anyway).
 /// rho <= 2 gives the delta at the origin. Errors with
 /// [`Error::Prefilter`] when [`shell_limit`] shells do not suffice.
+///
+/// # Errors
+///
+/// [`Error::Prefilter`] when [`shell_limit`] shells do not suffice.
 pub fn derive_prefilter(filter: &Filter, group: &[SignedPerm], rho: usize) -> Result<Prefilter> {
     derive_prefilter_with_limit(filter, group, rho, shell_limit(filter.dim(), rho))
 }
@@ -72,6 +76,10 @@ pub fn shell_limit(dim: usize, rho: usize) -> usize {
 }
 
 /// [`derive_prefilter`] with an explicit shell limit.
+///
+/// # Errors
+///
+/// [`Error::Prefilter`] when `max_shells` shells do not suffice.
 pub fn derive_prefilter_with_limit(
     filter: &Filter,
     group: &[SignedPerm],
@@ -232,7 +240,7 @@ fn shells(lattice: &Lattice, group: &[SignedPerm], count: usize) -> Vec<Vec<IVec
                 assert!(lattice.contains(x), "a group element maps {p:?} to {x:?}, off the lattice");
             }
             assigned.extend(orb.iter().cloned());
-            let rep = orb.iter().next_back().expect("non-empty orbit").clone();
+            let rep = orb.iter().next_back().expect("an orbit contains its own point p").clone();
             found.insert((norm2(&p), rep), orb.into_iter().collect());
         }
         if found.len() >= count {

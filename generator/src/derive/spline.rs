@@ -35,6 +35,7 @@ pub fn sign_normal(v: &[i64]) -> IVec {
 }
 
 impl SplineFacts {
+    /// Computes the facts of a validated filter.
     pub fn new(filter: &Filter) -> SplineFacts {
         let dim = filter.dim();
         let directions = filter.directions.clone();
@@ -69,7 +70,9 @@ impl SplineFacts {
             .iter()
             .map(|sub| {
                 let cols: Vec<&[i64]> = sub.iter().map(|&i| directions[i].as_slice()).collect();
-                det_columns(&cols).abs()
+                det_columns(&cols)
+                    .expect("directions are within ±64 (Filter::new) and s <= 3: |det| <= 3! * 64^3")
+                    .abs()
             })
             .sum();
         let center = (0..dim).map(|i| Q::frac(directions.iter().map(|d| d[i]).sum::<i64>(), 2)).collect();
@@ -103,6 +106,10 @@ impl SplineFacts {
 }
 
 /// Primitive direction of a vector (for grouping parallel directions).
+///
+/// # Panics
+///
+/// For the zero vector.
 pub fn primitive_direction(v: &[i64]) -> IVec {
-    primitive(v).expect("non-zero direction")
+    primitive(v).expect("v is non-zero (the precondition; Filter::new refuses zero directions)")
 }

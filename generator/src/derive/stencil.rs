@@ -9,11 +9,17 @@ use crate::spec::lattice::Lattice;
 /// Lattice points j with x - j strictly inside the support of phi (x must be
 /// off the knot planes, e.g. a cell's interior point). The zonotope test runs
 /// in f64 and falls back to exact arithmetic near its boundary.
+///
+/// # Panics
+///
+/// If `x` ± the support half-widths leaves the i64 range.
 pub fn stencil_points(facts: &SplineFacts, lattice: &Lattice, x: &[Q]) -> Vec<IVec> {
+    const IN_RANGE: &str =
+        "x ± the support half-widths is within the i64 range (the precondition; callers pass cell interiors)";
     let s = facts.dim;
     let half: Vec<Q> = (0..s).map(|i| Q::frac(facts.directions.iter().map(|d| d[i].abs()).sum(), 2)).collect();
-    let lo: IVec = (0..s).map(|i| (&x[i] - &half[i]).floor_i64().unwrap()).collect();
-    let hi: IVec = (0..s).map(|i| (&x[i] + &half[i]).floor_i64().unwrap() + 1).collect();
+    let lo: IVec = (0..s).map(|i| (&x[i] - &half[i]).floor_i64().expect(IN_RANGE)).collect();
+    let hi: IVec = (0..s).map(|i| (&x[i] + &half[i]).floor_i64().expect(IN_RANGE) + 1).collect();
     let planes: Vec<(&IVec, f64, f64)> =
         facts.normals.iter().map(|n| (n, dot_iq(n, x).to_f64(), facts.support_half_width(n).to_f64())).collect();
     let mut out = Vec::new();

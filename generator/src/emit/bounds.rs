@@ -46,7 +46,9 @@ pub(crate) fn cube_bounds_fn(d: &Derivation, sh: &Shapes, name: &str) -> String 
         for (slot, k) in plan_nosort.slots[r].iter().enumerate() {
             if let Some(k) = k {
                 let q = &c.offsets[slot];
-                per_k[*k] = samples[union.iter().position(|x| x == q).unwrap()].clone();
+                per_k[*k] = samples
+                    [union.iter().position(|x| x == q).expect("the union holds every candidate's offsets")]
+                .clone();
             }
         }
         let coeffs = emit_coefficients(&mut body, &coef_weights, &per_k, "b");
@@ -81,8 +83,9 @@ pub(crate) fn bound_weights(d: &Derivation, r: usize) -> Vec<Vec<Q>> {
     let s = d.facts.dim;
     let origin = d.cube_origin(&d.references[r].corner);
     let local: Vec<QVec> = d.references[r].vertices.iter().map(|v| sub_q(v, &origin)).collect();
-    let lo: QVec = (0..s).map(|i| local.iter().map(|v| v[i].clone()).min().unwrap()).collect();
-    let hi: QVec = (0..s).map(|i| local.iter().map(|v| v[i].clone()).max().unwrap()).collect();
+    const VERTICES: &str = "a full-dimensional cell has at least s + 1 vertices";
+    let lo: QVec = (0..s).map(|i| local.iter().map(|v| v[i].clone()).min().expect(VERTICES)).collect();
+    let hi: QVec = (0..s).map(|i| local.iter().map(|v| v[i].clone()).max().expect(VERTICES)).collect();
     // u = lo + (hi - lo) t
     let a: Vec<QVec> =
         (0..s).map(|i| (0..s).map(|j| if i == j { &hi[i] - &lo[i] } else { Q::zero() }).collect()).collect();

@@ -10,6 +10,10 @@ use std::fmt::Write;
 
 /// Parity pivots of the cosets of 2Z^s in L: coordinates whose parity bits
 /// number the cosets 0..2^k. Errors if 2Z^s is not a sublattice of L.
+///
+/// # Errors
+///
+/// [`Error::Spec`] when 2Z^s is not a sublattice of L.
 pub fn coset_pivots(lattice: &Lattice) -> Result<Vec<usize>> {
     let s = lattice.dim();
     for i in 0..s {

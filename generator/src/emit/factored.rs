@@ -180,12 +180,22 @@ pub(crate) fn emit_factored_body(fac: &Factorisation, sh: &Shapes, name: &str, g
             }
             tensors = next;
         }
-        let value = tensors.iter().find(|t| t.deriv.is_none()).map(|t| t.entries[0].clone()).unwrap();
+        let value = tensors
+            .iter()
+            .find(|t| t.deriv.is_none())
+            .map(|t| t.entries[0].clone())
+            .expect("the underived tensor is kept through every axis");
         coset_values.push(value);
         if grad {
             coset_grads.push(
                 (0..s)
-                    .map(|i| tensors.iter().find(|t| t.deriv == Some(i)).map(|t| t.entries[0].clone()).unwrap())
+                    .map(|i| {
+                        tensors
+                            .iter()
+                            .find(|t| t.deriv == Some(i))
+                            .map(|t| t.entries[0].clone())
+                            .expect("with grad, axis i adds the tensor of d/dx_i, kept through the later axes")
+                    })
                     .collect(),
             );
         }

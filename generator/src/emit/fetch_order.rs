@@ -26,13 +26,18 @@ pub fn axis_aligned_order(points: &[IVec]) -> Vec<usize> {
         return vec![];
     }
     let zero = vec![0; points[0].len()];
-    let start = (0..n).min_by_key(|&i| (cost(&zero, &points[i]), points[i].clone())).unwrap();
+    let start = (0..n)
+        .min_by_key(|&i| (cost(&zero, &points[i]), points[i].clone()))
+        .expect("points is non-empty (checked above)");
     let mut order = vec![start];
     let mut used = vec![false; n];
     used[start] = true;
     for _ in 1..n {
-        let last = &points[*order.last().unwrap()];
-        let next = (0..n).filter(|&i| !used[i]).min_by_key(|&i| (cost(last, &points[i]), i)).unwrap();
+        let last = &points[*order.last().expect("order starts with `start`")];
+        let next = (0..n)
+            .filter(|&i| !used[i])
+            .min_by_key(|&i| (cost(last, &points[i]), i))
+            .expect("fewer than n points are used before the last of n - 1 steps");
         used[next] = true;
         order.push(next);
     }

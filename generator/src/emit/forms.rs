@@ -61,7 +61,8 @@ pub(crate) fn emit_form_eval(
             // Barycentric coordinates: lambda_i = affine(u).
             let v0 = &bb.vertices[0];
             let t: Vec<QVec> = (0..s).map(|j| (1..=s).map(|i| &bb.vertices[i][j] - &v0[j]).collect()).collect();
-            let tinv = inverse(&t).expect("simplex");
+            let tinv =
+                inverse(&t).expect("a simplex's vertices are affinely independent, so its edge matrix is invertible");
             // lambda_i (i>=1) = sum_j tinv[i-1][j] (u_j - v0_j)
             let mut grads: Vec<QVec> = vec![vec![Q::zero(); s]; s + 1];
             let mut consts: Vec<Q> = vec![Q::zero(); s + 1];
@@ -85,6 +86,8 @@ pub(crate) fn emit_form_eval(
                 return (coeffs[0].clone(), grad.then(|| format!("{}(0.0)", sh.vecf)));
             }
             // de Casteljau down to degree 1.
+            const LEVEL: &str =
+                "level holds every multi-index of degree l + 1 (the BB indices, then each step's lower level)";
             let mut level: Vec<(Vec<u32>, String)> = indices.iter().cloned().zip(coeffs.iter().cloned()).collect();
             for l in (1..degree).rev() {
                 let lower: Vec<Vec<u32>> = crate::math::poly::Monomials::get(s + 1, l)
@@ -99,7 +102,7 @@ pub(crate) fn emit_form_eval(
                         .map(|i| {
                             let mut a = beta.clone();
                             a[i] += 1;
-                            let name = &level.iter().find(|(e, _)| *e == a).unwrap().1;
+                            let name = &level.iter().find(|(e, _)| *e == a).expect(LEVEL).1;
                             format!("{} * {name}", lam[i])
                         })
                         .collect();
@@ -111,7 +114,7 @@ pub(crate) fn emit_form_eval(
             let unit = |i: usize| -> String {
                 let mut a = vec![0u32; s + 1];
                 a[i] = 1;
-                level.iter().find(|(e, _)| *e == a).unwrap().1.clone()
+                level.iter().find(|(e, _)| *e == a).expect(LEVEL).1.clone()
             };
             let value =
                 body.bind("v", &(0..=s).map(|i| format!("{} * {}", lam[i], unit(i))).collect::<Vec<_>>().join(" + "));
@@ -155,7 +158,8 @@ pub(crate) fn emit_form_eval(
                 .iter()
                 .zip(coeffs)
                 .map(|(e, c)| {
-                    let m = mono(e, None).unwrap();
+                    let m = mono(e, None)
+                        .expect("mono returns None only when a skipped exponent is 0, and nothing is skipped");
                     if m == "1.0" {
                         c.clone()
                     } else {

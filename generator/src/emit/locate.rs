@@ -323,10 +323,11 @@ pub(crate) fn emit_eval_body(
         values.push((r, v, g));
     }
     // Pick the chosen candidate's reference.
+    const USED: &str = "values holds every used reference, and used_references are the candidates' references";
     let ref_of: Vec<usize> = plan.candidates.iter().map(|c| c.reference).collect();
     let pick = |body: &mut Body, which: &dyn Fn(&PieceValue) -> String, prefix: &str| {
         let per_cand: Vec<String> =
-            ref_of.iter().map(|r| which(values.iter().find(|(rr, _, _)| rr == r).unwrap())).collect();
+            ref_of.iter().map(|r| which(values.iter().find(|(rr, _, _)| rr == r).expect(USED))).collect();
         select_by_candidate(body, &ci, &per_cand, prefix)
     };
     let value = pick(&mut body, &|t| t.1.clone(), "val");
@@ -339,7 +340,13 @@ pub(crate) fn emit_eval_body(
         .candidates
         .iter()
         .map(|c| {
-            let g = values.iter().find(|(rr, _, _)| *rr == c.reference).unwrap().2.clone().unwrap();
+            let g = values
+                .iter()
+                .find(|(rr, _, _)| *rr == c.reference)
+                .expect(USED)
+                .2
+                .clone()
+                .expect("with grad, every piece value carries its gradient");
             sh.perm_apply(&crate::derive::symmetry::inverse(&c.rotation), &g)
         })
         .collect();

@@ -58,12 +58,14 @@ pub enum Variant {
 }
 
 impl Layout {
+    /// The name used on the command line (and in reports).
     pub fn name(self) -> &'static str {
         match self {
             Layout::Embedded => "embedded",
             Layout::Packed => "packed",
         }
     }
+    /// The value named `s` (see [`name`](Self::name)); None for any other string.
     pub fn parse(s: &str) -> Option<Layout> {
         match s {
             "embedded" => Some(Layout::Embedded),
@@ -74,12 +76,14 @@ impl Layout {
 }
 
 impl Variant {
+    /// The name used on the command line (and in reports).
     pub fn name(self) -> &'static str {
         match self {
             Variant::Fast => "fast",
             Variant::Naive => "naive",
         }
     }
+    /// The value named `s` (see [`name`](Self::name)); None for any other string.
     pub fn parse(s: &str) -> Option<Variant> {
         match s {
             "fast" => Some(Variant::Fast),
@@ -89,6 +93,7 @@ impl Variant {
     }
 }
 
+/// What to emit: layout, code shape, bindings, form and fetch choices.
 #[derive(Clone, Debug)]
 pub struct EmitOptions {
     pub layout: Layout,
@@ -124,12 +129,14 @@ pub enum FetchMode {
 }
 
 impl FetchMode {
+    /// The name used on the command line (and in reports).
     pub fn name(self) -> &'static str {
         match self {
             FetchMode::Exact => "exact",
             FetchMode::Linear => "linear",
         }
     }
+    /// The value named `s` (see [`name`](Self::name)); None for any other string.
     pub fn parse(s: &str) -> Option<FetchMode> {
         match s {
             "exact" => Some(FetchMode::Exact),
@@ -152,12 +159,14 @@ pub enum Bounds {
 }
 
 impl Bounds {
+    /// The name used on the command line (and in reports).
     pub fn name(self) -> &'static str {
         match self {
             Bounds::Clamp => "clamp",
             Bounds::Unchecked => "unchecked",
         }
     }
+    /// The value named `s` (see [`name`](Self::name)); None for any other string.
     pub fn parse(s: &str) -> Option<Bounds> {
         match s {
             "clamp" => Some(Bounds::Clamp),
@@ -222,6 +231,7 @@ pub struct EmitStats {
     pub fetch: FetchMode,
 }
 
+/// One emitted WGSL module: its file name, source and counts.
 #[derive(Clone, Debug)]
 pub struct Emitted {
     pub file_name: String,
@@ -238,6 +248,14 @@ pub fn file_name(filter: &str, layout: Layout, variant: Variant) -> String {
 }
 
 /// Emits the module for one filter.
+///
+/// # Errors
+///
+/// [`Error::EmitCap`] when the derivation has more polynomials than
+/// `caps.max_emitted_polynomials`; [`Error::Spec`] when the options cannot be met
+/// (`form = "factored"` on a filter that does not factor, linear fetches outside
+/// the fast embedded factored case, the packed layout on a lattice without 2Z^s)
+/// or a template fails to render.
 pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
     let polynomials = d.polynomials();
     if polynomials > d.filter.caps.max_emitted_polynomials {
@@ -360,7 +378,7 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
     }
     let out_binding = opts.binding + if opts.layout == Layout::Packed { 2 } else { 1 };
     let env = template_env();
-    let tmpl = env.get_template("module.wgsl.j2").expect("module template");
+    let tmpl = env.get_template("module.wgsl.j2").expect("template_env adds module.wgsl.j2");
     let ctx = minijinja::context! {
         command => opts.command.clone(),
         name => name,
@@ -466,7 +484,9 @@ fn choose_form(
         .iter()
         .map(|(f, n, e, g)| FormCost { form: *f, fetches: *n, ops_eval: count_ops(e), ops_eval_grad: count_ops(g) })
         .collect();
-    let best = (0..forms.len()).min_by_key(|&i| (forms[i].cost(), i)).expect("at least one form");
+    let best = (0..forms.len()).min_by_key(|&i| (forms[i].cost(), i)).expect(
+        "factored is emitted when asked for (checked above) or when plan forms are skipped, else plan forms are",
+    );
     let (f, _, e, g) = bodies.swap_remove(best);
     Ok((f, forms, e, g))
 }
@@ -480,7 +500,7 @@ fn template_env() -> minijinja::Environment<'static> {
             .keep_trailing_newline(true)
             .trim_blocks(true)
             .build()
-            .expect("syntax config"),
+            .expect("the default delimiters are a valid syntax"),
     );
     for (n, src) in [
         ("module.wgsl.j2", include_str!("../../../templates/module.wgsl.j2")),
@@ -488,7 +508,8 @@ fn template_env() -> minijinja::Environment<'static> {
         ("fetch_packed.wgsl.j2", include_str!("../../../templates/fetch_packed.wgsl.j2")),
         ("kernels.wgsl.j2", include_str!("../../../templates/kernels.wgsl.j2")),
     ] {
-        env.add_template(n, src).expect("template parses");
+        env.add_template(n, src)
+            .expect("the embedded templates are fixed at build time and parse (every emission test renders them)");
     }
     env
 }

@@ -39,6 +39,8 @@ pub struct Candidate {
     pub offsets: Vec<IVec>,
 }
 
+/// How the fast shader locates a point: the frame, the candidate cells and
+/// the fetch slots of every reference.
 #[derive(Clone, Debug)]
 pub struct Plan {
     pub dim: usize,
@@ -63,6 +65,7 @@ fn signed_identity(s: usize) -> SignedPerm {
 }
 
 impl Plan {
+    /// The plan the fast shaders use (folding with the sorting network where it applies).
     pub fn new(d: &Derivation) -> Plan {
         Plan::build(d, true)
     }
@@ -139,6 +142,7 @@ impl Plan {
         }
     }
 
+    /// Samples fetched per evaluation: the most slots any reference uses.
     pub fn fetches(&self) -> usize {
         self.slots.iter().map(|s| s.len()).max().unwrap_or(0)
     }
@@ -219,7 +223,11 @@ impl Plan {
             Locate::Generic => {
                 let z: IVec = (0..s).map(|i| (x[i] - self.grid_offset[i].to_f64()).floor() as i64).collect();
                 let key = reduce_with(&self.hermite, &z);
-                let class = self.class_keys.iter().position(|k| *k == key).expect("complete classes");
+                let class = self
+                    .class_keys
+                    .iter()
+                    .position(|k| *k == key)
+                    .expect("class_keys holds the reduced key of every class of Z^s / L");
                 let l = sub_i(&z, &self.classes[class]);
                 let w: Vec<f64> = (0..s).map(|i| x[i] - l[i] as f64).collect();
                 (l, signed_identity(s), w, Some(class))

@@ -69,7 +69,12 @@ impl Shapes {
         let comps: Vec<String> = r
             .iter()
             .map(|row| {
-                let (j, sgn) = row.iter().enumerate().find(|(_, x)| **x != 0).map(|(j, x)| (j, *x)).unwrap();
+                let (j, sgn) = row
+                    .iter()
+                    .enumerate()
+                    .find(|(_, x)| **x != 0)
+                    .map(|(j, x)| (j, *x))
+                    .expect("every row of a signed permutation has one non-zero entry");
                 if sgn > 0 {
                     format!("{v}.{}", AXES[j])
                 } else {

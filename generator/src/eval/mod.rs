@@ -20,9 +20,17 @@ pub struct Location {
 
 impl Derivation {
     /// Finds the cell containing x (any containing cell on boundaries).
+    ///
+    /// # Panics
+    ///
+    /// If a coordinate of `x` is beyond the i64 range.
     pub fn locate(&self, x: &[Q]) -> Location {
         let arr = &self.arrangement;
-        let z: IVec = x.iter().zip(&arr.grid_offset).map(|(a, o)| (a - o).floor_i64().expect("finite point")).collect();
+        let z: IVec = x
+            .iter()
+            .zip(&arr.grid_offset)
+            .map(|(a, o)| (a - o).floor_i64().expect("x is within the i64 range (the precondition of locate)"))
+            .collect();
         let (ci, l) = arr.locate_cube(&self.filter.lattice, &z);
         let xr = sub_q(x, &to_q(&l));
         let cell = arr
@@ -31,7 +39,7 @@ impl Derivation {
             .enumerate()
             .find(|(_, c)| c.class == ci && c.polytope.contains(&xr))
             .map(|(i, _)| i)
-            .expect("cells cover the cube");
+            .expect("the cells of a class cover its closed cube, which holds xr");
         Location { cell, lattice_shift: l }
     }
 
@@ -50,6 +58,10 @@ impl Derivation {
     }
 
     /// The spline sum_j data(j) phi(x - j), exactly.
+    ///
+    /// # Panics
+    ///
+    /// As [`Derivation::locate`].
     pub fn eval_exact(&self, x: &[Q], data: &dyn Fn(&[i64]) -> Q) -> Q {
         let loc = self.locate(x);
         let (ri, u, fetch) = self.reference_frame(x, &loc);
@@ -88,7 +100,7 @@ impl Derivation {
                 (i, slack)
             })
             .max_by(|a, b| a.1.total_cmp(&b.1))
-            .expect("cells cover the cube")
+            .expect("every cube class has at least one cell")
             .0;
         let map = &self.maps[cell];
         let r = &self.references[map.reference];

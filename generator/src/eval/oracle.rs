@@ -158,6 +158,12 @@ fn pack(node: u32, sh: &Shift) -> u128 {
 }
 
 impl Oracle {
+    /// The oracle for a filter's directions and lattice.
+    ///
+    /// # Panics
+    ///
+    /// Outside dimensions 1..=4, or if the number of sub-multisets of the
+    /// directions (prod of multiplicity + 1) exceeds u64.
     pub fn new(filter: &Filter) -> Oracle {
         let dim = filter.dim();
         assert!((1..=MAXD).contains(&dim), "oracle supports dimensions 1..=4");
@@ -176,7 +182,9 @@ impl Oracle {
         let mut acc: u64 = 1;
         for &mk in &mult {
             stride.push(acc);
-            acc = acc.checked_mul(mk as u64 + 1).expect("too many sub-multisets for the oracle");
+            acc = acc
+                .checked_mul(mk as u64 + 1)
+                .expect("the sub-multisets number at most u64::MAX (the precondition of Oracle::new)");
         }
         let mut center = vec![Q::zero(); dim];
         for d in &filter.directions {
@@ -280,12 +288,22 @@ impl Oracle {
         assert_eq!(basis.len(), s, "node does not span");
         // Row-major B (columns are the basis directions), then B^-1.
         let b: Vec<QVec> = (0..s).map(|i| basis.iter().map(|&k| Q::int(self.dirs[k][i])).collect()).collect();
-        let binv = inverse(&b).expect("basis is invertible");
-        let det = crate::math::linalg::det(&b).abs().to_i64().expect("integer determinant");
+        let binv = inverse(&b).expect("the greedy basis has s independent directions, so B is invertible");
+        let det = crate::math::linalg::det(&b)
+            .abs()
+            .to_i64()
+            .expect("det B is an integer of at most 4! * 64^4: directions are within ±64 (Filter::new)");
         let adj: Vec<Shift> = binv
             .iter()
             .map(|row| {
-                let r: IVec = row.iter().map(|x| (x * &Q::int(det)).to_i64().expect("integer adjugate")).collect();
+                let r: IVec = row
+                    .iter()
+                    .map(|x| {
+                        (x * &Q::int(det))
+                            .to_i64()
+                            .expect("det B * B^-1 is the adjugate, an integer matrix of minors of B")
+                    })
+                    .collect();
                 pad(&r)
             })
             .collect();
@@ -356,14 +374,20 @@ impl Oracle {
     /// memo if it changed) and returns the integer shift floor(p).
     fn set_point(&mut self, p: &[Q]) -> Shift {
         assert_eq!(p.len(), self.dim, "point dimension");
-        let fl: IVec = p.iter().map(|x| x.floor_i64().expect("coordinate out of range")).collect();
+        let fl: IVec = p
+            .iter()
+            .map(|x| {
+                x.floor_i64().expect("the point is within the i64 range (the precondition of box_spline, phi, weights)")
+            })
+            .collect();
         let base: QVec = p.iter().zip(&fl).map(|(x, &f)| x - &Q::int(f)).collect();
         if self.base.as_ref() != Some(&base) {
             self.memo.clear();
             self.t0.iter_mut().for_each(|t| *t = None);
             for (i, n) in self.normals.iter().enumerate() {
                 let v = dot_iq(&n[..self.dim], &base);
-                self.n_floor[i] = v.floor_i64().expect("small");
+                self.n_floor[i] =
+                    v.floor_i64().expect("the base lies in [0,1)^s and the normals are small, so |n.base| < sum |n_i|");
                 self.n_int[i] = v.is_integer();
             }
             self.base = Some(base);
@@ -387,12 +411,12 @@ impl Oracle {
     fn t_at(&mut self, idx: u32, sh: &Shift) -> QVec {
         let s = self.dim;
         if self.t0[idx as usize].is_none() {
-            let base = self.base.as_ref().expect("base set");
+            let base = self.base.as_ref().expect("eval runs after set_point, which sets the base");
             let t0 = self.nodes[idx as usize].binv.iter().map(|row| crate::math::linalg::dot_q(row, base)).collect();
             self.t0[idx as usize] = Some(t0);
         }
         let node = &self.nodes[idx as usize];
-        let t0 = self.t0[idx as usize].as_ref().unwrap();
+        let t0 = self.t0[idx as usize].as_ref().expect("t0 was filled just above");
         (0..s)
             .map(|r| {
                 let a = dot_s(&node.adj[r], sh);
@@ -462,6 +486,10 @@ impl Oracle {
     }
 
     /// Non-centred M_Xi(x) (integral 1, support Xi[0,1)^s), valid at points off all knot planes.
+    ///
+    /// # Panics
+    ///
+    /// If a coordinate of `x` is beyond the i64 range.
     pub fn box_spline(&mut self, x: &[Q]) -> Q {
         let sh = self.set_point(x);
         self.eval(self.root, &sh)
@@ -476,13 +504,18 @@ impl Oracle {
     /// The non-zero weights phi(x - j) over the lattice points j (each j
     /// once, in lexicographic order). Off the knot planes these are exactly
     /// the j whose shifted support contains x in its interior.
+    ///
+    /// # Panics
+    ///
+    /// If a coordinate of `x` plus the support box leaves the i64 range.
     pub fn weights(&mut self, x: &[Q]) -> Vec<(IVec, Q)> {
         let s = self.dim;
         let p: QVec = x.iter().zip(&self.center).map(|(a, b)| a + b).collect();
         let sh = self.set_point(&p);
         // phi(x - j) = |det G| M(p - j) != 0 needs box_lo <= p - j <= box_hi.
-        let lo: IVec = (0..s).map(|i| (&p[i] - &Q::int(self.box_hi[i])).floor_i64().unwrap()).collect();
-        let hi: IVec = (0..s).map(|i| (&p[i] - &Q::int(self.box_lo[i])).floor_i64().unwrap() + 1).collect();
+        const BOX: &str = "p - j stays within the i64 range over the support box (the precondition of weights)";
+        let lo: IVec = (0..s).map(|i| (&p[i] - &Q::int(self.box_hi[i])).floor_i64().expect(BOX)).collect();
+        let hi: IVec = (0..s).map(|i| (&p[i] - &Q::int(self.box_lo[i])).floor_i64().expect(BOX) + 1).collect();
         let mut out = Vec::new();
         let mut j = lo.clone();
         let g = Q::int(self.det_g);

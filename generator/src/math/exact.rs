@@ -31,12 +31,15 @@ fn demote(b: BigRational) -> Q {
 }
 
 impl Q {
+    /// 0.
     pub fn zero() -> Q {
         Q::Small(Ratio::from_integer(0))
     }
+    /// 1.
     pub fn one() -> Q {
         Q::Small(Ratio::from_integer(1))
     }
+    /// The integer n.
     pub fn int(n: i64) -> Q {
         Q::Small(Ratio::from_integer(n as i128))
     }
@@ -51,33 +54,39 @@ impl Q {
             Q::Big(b) => (**b).clone(),
         }
     }
+    /// Is it 0?
     pub fn is_zero(&self) -> bool {
         match self {
             Q::Small(r) => r.is_zero(),
             Q::Big(_) => false,
         }
     }
+    /// Is it 1?
     pub fn is_one(&self) -> bool {
         matches!(self, Q::Small(r) if r.is_one())
     }
+    /// Is the denominator 1?
     pub fn is_integer(&self) -> bool {
         match self {
             Q::Small(r) => r.is_integer(),
             Q::Big(b) => b.is_integer(),
         }
     }
+    /// Is it < 0?
     pub fn is_negative(&self) -> bool {
         match self {
             Q::Small(r) => r.is_negative(),
             Q::Big(b) => b.is_negative(),
         }
     }
+    /// Is it > 0?
     pub fn is_positive(&self) -> bool {
         match self {
             Q::Small(r) => r.is_positive(),
             Q::Big(b) => b.is_positive(),
         }
     }
+    /// -1, 0 or 1.
     pub fn signum(&self) -> i32 {
         if self.is_zero() {
             0
@@ -87,6 +96,7 @@ impl Q {
             1
         }
     }
+    /// |x|.
     pub fn abs(&self) -> Q {
         if self.is_negative() {
             -self
@@ -116,6 +126,7 @@ impl Q {
             None
         }
     }
+    /// An f64 approximation (exact when numerator and denominator are below 2^52).
     pub fn to_f64(&self) -> f64 {
         match self {
             Q::Small(r) => {
@@ -129,9 +140,11 @@ impl Q {
             Q::Big(b) => b.to_f64().unwrap_or(f64::NAN),
         }
     }
+    /// 1/x (panics on 0, like the division).
     pub fn recip(&self) -> Q {
         Q::one() / self
     }
+    /// x^e by repeated multiplication.
     pub fn pow(&self, e: u32) -> Q {
         let mut acc = Q::one();
         for _ in 0..e {

@@ -4,17 +4,22 @@
 
 use crate::math::exact::Q;
 
+/// An integer vector (or a matrix row).
 pub type IVec = Vec<i64>;
+/// An exact rational vector (or a matrix row).
 pub type QVec = Vec<Q>;
 
+/// The integer vector as rationals.
 pub fn to_q(v: &[i64]) -> QVec {
     v.iter().map(|&x| Q::int(x)).collect()
 }
 
+/// a . b over the integers.
 pub fn dot_i(a: &[i64], b: &[i64]) -> i64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
+/// a . b of an integer and a rational vector.
 pub fn dot_iq(a: &[i64], b: &[Q]) -> Q {
     let mut acc = Q::zero();
     for (x, y) in a.iter().zip(b) {
@@ -25,6 +30,7 @@ pub fn dot_iq(a: &[i64], b: &[Q]) -> Q {
     acc
 }
 
+/// a . b over the rationals.
 pub fn dot_q(a: &[Q], b: &[Q]) -> Q {
     let mut acc = Q::zero();
     for (x, y) in a.iter().zip(b) {
@@ -35,18 +41,22 @@ pub fn dot_q(a: &[Q], b: &[Q]) -> Q {
     acc
 }
 
+/// a + b.
 pub fn add_q(a: &[Q], b: &[Q]) -> QVec {
     a.iter().zip(b).map(|(x, y)| x + y).collect()
 }
 
+/// a - b.
 pub fn sub_q(a: &[Q], b: &[Q]) -> QVec {
     a.iter().zip(b).map(|(x, y)| x - y).collect()
 }
 
+/// a - b.
 pub fn sub_i(a: &[i64], b: &[i64]) -> IVec {
     a.iter().zip(b).map(|(x, y)| x - y).collect()
 }
 
+/// a + b.
 pub fn add_i(a: &[i64], b: &[i64]) -> IVec {
     a.iter().zip(b).map(|(x, y)| x + y).collect()
 }
@@ -56,10 +66,12 @@ pub fn mat_vec_q(m: &[QVec], v: &[Q]) -> QVec {
     m.iter().map(|row| dot_q(row, v)).collect()
 }
 
+/// Integer matrix (rows) times vector.
 pub fn mat_vec_i(m: &[IVec], v: &[i64]) -> IVec {
     m.iter().map(|row| dot_i(row, v)).collect()
 }
 
+/// The transpose of a row-major matrix.
 pub fn transpose<T: Clone>(m: &[Vec<T>]) -> Vec<Vec<T>> {
     if m.is_empty() {
         return vec![];
@@ -114,6 +126,7 @@ fn row_reduce(m: &[QVec]) -> (Vec<QVec>, Vec<usize>, Q) {
     (a, pivots, det)
 }
 
+/// Rank of a rational matrix (rows).
 pub fn rank(m: &[QVec]) -> usize {
     row_reduce(m).1.len()
 }
@@ -127,6 +140,7 @@ pub fn rank_of_vectors(vs: &[IVec]) -> usize {
     rank(&rows)
 }
 
+/// Determinant of a square rational matrix (rows).
 pub fn det(m: &[QVec]) -> Q {
     let n = m.len();
     let (_, pivots, d) = row_reduce(m);
@@ -137,13 +151,15 @@ pub fn det(m: &[QVec]) -> Q {
     }
 }
 
-/// Determinant of the square matrix whose columns are the integer vectors.
-pub fn det_columns(cols: &[&[i64]]) -> i64 {
+/// Determinant of the square matrix whose columns are the integer vectors;
+/// None when it does not fit an i64 (it is always an integer).
+pub fn det_columns(cols: &[&[i64]]) -> Option<i64> {
     let n = cols.len();
     let rows: Vec<QVec> = (0..n).map(|i| cols.iter().map(|c| Q::int(c[i])).collect()).collect();
-    det(&rows).to_i64().expect("integer determinant")
+    det(&rows).to_i64()
 }
 
+/// Inverse of a square rational matrix (rows); None if singular.
 pub fn inverse(m: &[QVec]) -> Option<Vec<QVec>> {
     let n = m.len();
     let aug: Vec<QVec> = m
@@ -204,6 +220,10 @@ pub fn primitive(v: &[i64]) -> Option<IVec> {
 
 /// Primitive integer normal of the hyperplane spanned by s-1 vectors in Z^s
 /// (generalised cross product), sign-normalised. None if they are dependent.
+///
+/// # Panics
+///
+/// Unless `vs.len() + 1 == dim`, or if a minor does not fit an i64.
 pub fn primitive_normal(vs: &[&[i64]], dim: usize) -> Option<IVec> {
     assert_eq!(vs.len() + 1, dim);
     let mut n = vec![0i64; dim];
@@ -211,7 +231,9 @@ pub fn primitive_normal(vs: &[&[i64]], dim: usize) -> Option<IVec> {
         let minor: Vec<QVec> =
             (0..dim).filter(|&r| r != i).map(|r| vs.iter().map(|v| Q::int(v[r])).collect()).collect();
         let d = if minor.is_empty() { Q::one() } else { det(&minor) };
-        let d = d.to_i64().expect("integer minor");
+        let d = d.to_i64().expect(
+            "a minor of integer vectors is an integer, and it fits an i64 for small entries (the precondition)",
+        );
         *ni = if i % 2 == 0 { d } else { -d };
     }
     primitive(&n)

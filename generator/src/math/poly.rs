@@ -51,14 +51,17 @@ impl Monomials {
         Monomials { nvars, degree, exps, index, times_var }
     }
 
+    /// Number of monomials.
     pub fn len(&self) -> usize {
         self.exps.len()
     }
 
+    /// Are there no monomials?
     pub fn is_empty(&self) -> bool {
         self.exps.is_empty()
     }
 
+    /// Position of the monomial with exponents `e`; None if it is not in the basis.
     pub fn index_of(&self, e: &[u32]) -> Option<usize> {
         self.index.get(e).copied()
     }
@@ -106,22 +109,26 @@ impl PartialEq for Poly {
 }
 
 impl Poly {
+    /// The zero polynomial on the basis of all monomials up to `degree`.
     pub fn zero(nvars: usize, degree: usize) -> Poly {
         let basis = Monomials::get(nvars, degree);
         let coeffs = vec![Q::zero(); basis.len()];
         Poly { basis, coeffs }
     }
 
+    /// The constant c on that basis.
     pub fn constant(nvars: usize, degree: usize, c: Q) -> Poly {
         let mut p = Poly::zero(nvars, degree);
         p.coeffs[0] = c;
         p
     }
 
+    /// Number of variables.
     pub fn nvars(&self) -> usize {
         self.basis.nvars
     }
 
+    /// Are all coefficients 0?
     pub fn is_zero(&self) -> bool {
         self.coeffs.iter().all(|c| c.is_zero())
     }
@@ -160,6 +167,7 @@ impl Poly {
         out
     }
 
+    /// self += other (same basis).
     pub fn add_assign(&mut self, other: &Poly) {
         debug_assert!(Arc::ptr_eq(&self.basis, &other.basis));
         for (a, b) in self.coeffs.iter_mut().zip(&other.coeffs) {
@@ -169,6 +177,7 @@ impl Poly {
         }
     }
 
+    /// self += s * other (same basis).
     pub fn add_scaled(&mut self, other: &Poly, s: &Q) {
         debug_assert!(Arc::ptr_eq(&self.basis, &other.basis));
         for (a, b) in self.coeffs.iter_mut().zip(&other.coeffs) {
@@ -178,10 +187,12 @@ impl Poly {
         }
     }
 
+    /// s * self.
     pub fn scale(&self, s: &Q) -> Poly {
         Poly { basis: self.basis.clone(), coeffs: self.coeffs.iter().map(|c| c * s).collect() }
     }
 
+    /// The exact value at x.
     pub fn eval(&self, x: &[Q]) -> Q {
         // Powers per variable, then sum.
         let d = self.basis.degree;
@@ -221,7 +232,10 @@ impl Poly {
             }
             let mut f = e.clone();
             f[v] -= 1;
-            let j = self.basis.index_of(&f).unwrap();
+            let j = self
+                .basis
+                .index_of(&f)
+                .expect("the basis holds every monomial up to its degree, and f is e lowered by one");
             out.coeffs[j] += &(&self.coeffs[i] * &Q::int(e[v] as i64));
         }
         out

@@ -14,6 +14,7 @@ pub struct HalfSpace {
 }
 
 impl HalfSpace {
+    /// bound - normal . x: non-negative inside.
     pub fn slack(&self, x: &[Q]) -> Q {
         &self.bound - &dot_q(&self.normal, x)
     }
@@ -43,9 +44,10 @@ impl Polytope {
             let neg: QVec = e.iter().map(|x| -x).collect();
             hs.push(HalfSpace { normal: neg, bound: -lo[i].clone() });
         }
-        Polytope::from_halfspaces(hs).expect("unit cube")
+        Polytope::from_halfspaces(hs).expect("the 2s facets of a box bound a full-dimensional polytope")
     }
 
+    /// The ambient dimension s.
     pub fn dim(&self) -> usize {
         self.vertices[0].len()
     }
@@ -186,10 +188,12 @@ impl Polytope {
         (0..s).map(|i| self.vertices.iter().map(|v| v[i].clone()).sum::<Q>() / &n).collect()
     }
 
+    /// Is x in the closed polytope?
     pub fn contains(&self, x: &[Q]) -> bool {
         self.facets.iter().all(|h| !h.slack(x).is_negative())
     }
 
+    /// Does it have exactly s + 1 vertices?
     pub fn is_simplex(&self) -> bool {
         self.vertices.len() == self.dim() + 1
     }

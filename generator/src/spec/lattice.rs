@@ -22,6 +22,10 @@ pub const BUILTIN_LATTICES: &[&str] = &["cc", "bcc", "fcc", "square", "quincunx"
 
 impl Lattice {
     /// A built-in lattice by name (see BOX_SPLINES.md §1).
+    ///
+    /// # Errors
+    ///
+    /// [`Error::UnknownLattice`] for a name outside [`BUILTIN_LATTICES`].
     pub fn builtin(name: &str) -> Result<Lattice> {
         let gens: Vec<IVec> = match name {
             "cc" => vec![vec![1, 0, 0], vec![0, 1, 0], vec![0, 0, 1]],
@@ -35,6 +39,12 @@ impl Lattice {
     }
 
     /// A lattice from generator columns; errors on a singular or ragged matrix.
+    ///
+    /// # Errors
+    ///
+    /// [`Error::UnsupportedDimension`] unless there are 1 to 4 generators,
+    /// [`Error::MixedDimensions`] for a generator of the wrong length, [`Error::Spec`]
+    /// when the determinant does not fit an i64, and [`Error::SingularLattice`] when it is 0.
     pub fn from_generators(name: &str, generators: Vec<IVec>) -> Result<Lattice> {
         let dim = generators.len();
         if !(1..=4).contains(&dim) {
@@ -50,7 +60,13 @@ impl Lattice {
             }
         }
         let cols: Vec<&[i64]> = generators.iter().map(|g| g.as_slice()).collect();
-        let det = det_columns(&cols).abs();
+        // Generators are unbounded user input: a determinant beyond i64 is refused, not a panic.
+        let Some(det) = det_columns(&cols).and_then(i64::checked_abs) else {
+            return Err(Error::Spec {
+                origin: format!("lattice '{name}'"),
+                message: "the generator determinant does not fit a 64-bit integer; use smaller generators".into(),
+            });
+        };
         if det == 0 {
             return Err(Error::SingularLattice { dim });
         }
@@ -58,6 +74,7 @@ impl Lattice {
         Ok(Lattice { name: name.to_string(), generators, hermite, det })
     }
 
+    /// The dimension s.
     pub fn dim(&self) -> usize {
         self.generators.len()
     }
@@ -89,6 +106,7 @@ impl Lattice {
         &self.hermite
     }
 
+    /// Is v a lattice point?
     pub fn contains(&self, v: &[i64]) -> bool {
         self.reduce(v).iter().all(|&x| x == 0)
     }
@@ -166,7 +184,8 @@ fn hermite_lower(generators: &[IVec]) -> Vec<IVec> {
                 }
                 break;
             }
-            let &p = nonzero.iter().min_by_key(|&&c| cols[c][i].abs()).unwrap();
+            let &p =
+                nonzero.iter().min_by_key(|&&c| cols[c][i].abs()).expect("`nonzero` has at least two columns here");
             for &c in &nonzero {
                 if c != p {
                     let q = cols[c][i].div_euclid(cols[p][i]);
@@ -220,5 +239,13 @@ mod tests {
     fn singular_is_rejected() {
         let e = Lattice::from_generators("custom", vec![vec![1, 1], vec![2, 2]]).unwrap_err();
         assert!(matches!(e, Error::SingularLattice { .. }));
+    }
+
+    #[test]
+    fn determinant_beyond_i64_is_an_error() {
+        let big = 1 << 40;
+        let e =
+            Lattice::from_generators("custom", vec![vec![big, 0, 0], vec![0, big, 0], vec![0, 0, big]]).unwrap_err();
+        assert!(matches!(e, Error::Spec { .. }), "{e}");
     }
 }

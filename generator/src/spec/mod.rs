@@ -67,8 +67,10 @@ pub enum EvalForm {
 }
 
 impl EvalForm {
+    /// Every form, `auto` first.
     pub const ALL: [EvalForm; 5] = [EvalForm::Auto, EvalForm::Factored, EvalForm::Power, EvalForm::Bb, EvalForm::Dense];
 
+    /// The name used in specs and on the command line.
     pub fn name(self) -> &'static str {
         match self {
             EvalForm::Auto => "auto",
@@ -132,6 +134,13 @@ fn integer_vector(v: &[toml::Value], what: &str) -> Result<IVec> {
 
 impl Filter {
     /// Parses and validates spec text; `origin` names it in errors.
+    ///
+    /// # Errors
+    ///
+    /// [`Error::Spec`] when the TOML does not parse or has the wrong shape,
+    /// [`Error::NotInteger`] for a non-integer entry, the errors of
+    /// [`Lattice::builtin`] and [`Lattice::from_generators`], and every error of
+    /// [`Filter::new`].
     pub fn from_toml(text: &str, origin: &str) -> Result<Filter> {
         let raw: RawSpec = toml::from_str(text).map_err(|e| Error::Spec {
             origin: origin.to_string(),
@@ -160,12 +169,23 @@ impl Filter {
     }
 
     /// Reads and validates a spec file.
+    ///
+    /// # Errors
+    ///
+    /// [`Error::Io`] when the file cannot be read, and every error of [`Filter::from_toml`].
     pub fn from_file(path: &Path) -> Result<Filter> {
         let text = std::fs::read_to_string(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
         Filter::from_toml(&text, &path.display().to_string())
     }
 
     /// Validates a filter given in code.
+    ///
+    /// # Errors
+    ///
+    /// [`Error::UnsupportedDimension`] unless the lattice is 2D or 3D; [`Error::Spec`] for a
+    /// name that is not a WGSL-safe identifier or a direction entry beyond ±64;
+    /// [`Error::TooManyDirections`], [`Error::MixedDimensions`], [`Error::ZeroDirection`],
+    /// [`Error::RankDeficient`], [`Error::NotInLattice`] and [`Error::DegreeCap`].
     pub fn new(name: &str, description: &str, lattice: Lattice, directions: Vec<IVec>, caps: Caps) -> Result<Filter> {
         let dim = lattice.dim();
         if !(2..=3).contains(&dim) {
@@ -220,6 +240,7 @@ impl Filter {
         })
     }
 
+    /// The dimension of the lattice (and of every direction).
     pub fn dim(&self) -> usize {
         self.lattice.dim()
     }
@@ -243,6 +264,11 @@ pub mod catalog {
     }
 
     /// A catalog filter by name.
+    ///
+    /// # Errors
+    ///
+    /// [`Error::UnknownFilter`] when no catalog file has this name (listing the
+    /// names); a catalog spec that fails [`Filter::from_toml`] would return its error.
     pub fn get(name: &str) -> Result<Filter> {
         match source(name) {
             Some(text) => Filter::from_toml(text, &format!("catalog/{name}.toml")),
@@ -251,12 +277,22 @@ pub mod catalog {
     }
 
     /// Every catalog filter.
+    ///
+    /// # Errors
+    ///
+    /// The first error of [`get`] (a catalog spec that does not validate).
     pub fn all() -> Result<Vec<Filter>> {
         names().into_iter().map(get).collect()
     }
 }
 
 /// Resolves a command-line argument: a catalog name or a path to a spec file.
+///
+/// # Errors
+///
+/// [`Error::UnknownFilter`] when the argument is neither a catalog name nor an
+/// existing path or `.toml` name; otherwise the errors of [`catalog::get`] or
+/// [`Filter::from_file`].
 pub fn resolve(name_or_path: &str) -> Result<Filter> {
     if catalog::source(name_or_path).is_some() {
         return catalog::get(name_or_path);

@@ -19,11 +19,13 @@ pub const LATTICES: [&str; 5] = ["cc", "bcc", "fcc", "square", "quincunx"];
 pub struct Rng(u64);
 
 impl Rng {
+    /// A stream from a seed (any value, 0 included).
     pub fn new(seed: u64) -> Rng {
         // Never zero; mixes small seeds.
         Rng(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1)
     }
 
+    /// The next value.
     pub fn next_u64(&mut self) -> u64 {
         let mut x = self.0;
         x ^= x >> 12;
@@ -40,8 +42,12 @@ impl Rng {
 }
 
 /// One random spec: `count` directions on `lattice`, entries in `[-range, range]`.
+///
+/// # Panics
+///
+/// If `lattice` is not a built-in lattice name.
 pub fn random_filter(rng: &mut Rng, name: &str, lattice: &str, count: usize, range: i64) -> Filter {
-    let lattice = Lattice::builtin(lattice).expect("a built-in lattice");
+    let lattice = Lattice::builtin(lattice).expect("`lattice` is a built-in name (the precondition of random_filter)");
     let dim = lattice.dim();
     loop {
         let mut directions = Vec::with_capacity(count);
@@ -64,7 +70,7 @@ pub fn benchmark_specs(seed: u64, count: usize) -> Vec<Filter> {
     (0..count)
         .map(|i| {
             let lattice = LATTICES[i % LATTICES.len()];
-            let min = if Lattice::builtin(lattice).expect("built-in").dim() == 2 { 2 } else { 3 };
+            let min = if Lattice::builtin(lattice).expect("LATTICES holds built-in names").dim() == 2 { 2 } else { 3 };
             let n = min + (i / LATTICES.len()) % (10 - min);
             random_filter(&mut rng, &format!("random{i}"), lattice, n, 2)
         })

@@ -107,6 +107,11 @@ pub fn validate_wgsl(source: &str, path: &str) -> ValidationReport {
 ///
 /// The error names every offending function with its call-tree totals, or the missing names,
 /// or says the module did not validate.
+///
+/// # Errors
+///
+/// A message (not a crate error) when the module did not validate, a required
+/// function is missing, or one is not branch-free.
 pub fn check_branch_free(report: &ValidationReport, required: &[&str]) -> Result<(), String> {
     if !report.valid {
         return Err(format!("module failed validation: {}", report.error.as_deref().unwrap_or("(no message)")));
