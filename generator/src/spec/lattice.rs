@@ -20,6 +20,9 @@ pub struct Lattice {
 /// Names of the built-in lattices.
 pub const BUILTIN_LATTICES: &[&str] = &["cc", "bcc", "fcc", "square", "quincunx"];
 
+/// Largest |entry| of a lattice generator (directions have the same bound).
+pub const MAX_GENERATOR_ENTRY: i64 = 64;
+
 impl Lattice {
     /// A built-in lattice by name (see BOX_SPLINES.md §1).
     ///
@@ -59,8 +62,20 @@ impl Lattice {
                 });
             }
         }
+        // Generators are user input: bounded like directions, so the Hermite
+        // form and every reduction stay far inside i64.
+        if let Some((i, g)) =
+            generators.iter().enumerate().find(|(_, g)| g.iter().any(|x| x.abs() > MAX_GENERATOR_ENTRY))
+        {
+            return Err(Error::Spec {
+                origin: format!("lattice '{name}'"),
+                message: format!(
+                    "generator {i} {g:?} has an entry beyond ±{MAX_GENERATOR_ENTRY}; use a smaller basis of the same lattice"
+                ),
+            });
+        }
         let cols: Vec<&[i64]> = generators.iter().map(|g| g.as_slice()).collect();
-        // Generators are unbounded user input: a determinant beyond i64 is refused, not a panic.
+        // A determinant beyond i64 is refused, not a panic.
         let Some(det) = det_columns(&cols).and_then(i64::checked_abs) else {
             return Err(Error::Spec {
                 origin: format!("lattice '{name}'"),
@@ -242,10 +257,12 @@ mod tests {
     }
 
     #[test]
-    fn determinant_beyond_i64_is_an_error() {
+    fn huge_generators_are_an_error_not_an_overflow() {
         let big = 1 << 40;
         let e =
             Lattice::from_generators("custom", vec![vec![big, 0, 0], vec![0, big, 0], vec![0, 0, big]]).unwrap_err();
-        assert!(matches!(e, Error::Spec { .. }), "{e}");
+        assert!(matches!(e, Error::Spec { .. }) && e.to_string().contains("beyond"), "{e}");
+        let edge = MAX_GENERATOR_ENTRY;
+        assert!(Lattice::from_generators("custom", vec![vec![edge, 0, 0], vec![0, 1, 0], vec![0, 0, 1]]).is_ok());
     }
 }
