@@ -109,15 +109,22 @@ pub fn run(out: &Path, size: u32, adapter: Option<&str>) -> Result<(), String> {
     let sheet = contact_sheet(&images, FILTERS.len(), size);
     let sheet_png = out.join("contact_sheet.png");
     render::write_png(&sheet_png, size * FILTERS.len() as u32, size * 2, &sheet).map_err(|e| e.to_string())?;
-    println!("\n| filter | lattice | ML samples | RMS error (ML, 1e5 points) | max error | ms/frame ML {size}^2 | MNI samples | ms/frame MNI {size}^2 |");
-    println!("|---|---|---|---|---|---|---|---|");
+    outln!("\n| filter | lattice | ML samples | RMS error (ML, 1e5 points) | max error | ms/frame ML {size}^2 | MNI samples | ms/frame MNI {size}^2 |");
+    outln!("|---|---|---|---|---|---|---|---|");
     for r in &rows {
-        println!(
+        outln!(
             "| {} | {} | {} | {:.5} | {:.4} | {:.1} | {} | {:.1} |",
-            r.filter, r.lattice, r.ml_samples, r.rms, r.max_err, r.ml_ms, r.mni_samples, r.mni_ms
+            r.filter,
+            r.lattice,
+            r.ml_samples,
+            r.rms,
+            r.max_err,
+            r.ml_ms,
+            r.mni_samples,
+            r.mni_ms
         );
     }
-    println!(
+    outln!(
         "\nImages: {} (ml_*.png, mni_*.png, contact_sheet.png) on {}; total {:.1} s",
         out.display(),
         gpu.describe(),

@@ -12,6 +12,22 @@ use boxforge_runtime::render::{self, RenderOptions};
 use boxforge_runtime::request;
 use boxforge_runtime::scene::{self, Conversion};
 
+/// `println!` that ends the process quietly when stdout is closed (e.g.
+/// `boxforge inspect --all | head`) instead of panicking on a broken pipe.
+macro_rules! outln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let mut out = std::io::stdout().lock();
+        if let Err(e) = writeln!(out, $($arg)*) {
+            if e.kind() == std::io::ErrorKind::BrokenPipe {
+                std::process::exit(0);
+            }
+            eprintln!("error: cannot write to stdout: {e}");
+            std::process::exit(2);
+        }
+    }};
+}
+
 mod demo;
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -256,7 +272,7 @@ fn run(cli: Cli) -> Result<(), Failure> {
         Command::List => {
             for name in spec::catalog::names() {
                 let f = spec::catalog::get(name)?;
-                println!("{:<16} {:<9} {}", f.name, f.lattice.name, f.description);
+                outln!("{:<16} {:<9} {}", f.name, f.lattice.name, f.description);
             }
             Ok(())
         }
@@ -322,7 +338,7 @@ fn run(cli: Cli) -> Result<(), Failure> {
             let frame = render::render(&gpu, &d, &vol, layout, &opts).map_err(|e| Failure(e.to_string()))?;
             render::write_png(&out, frame.width, frame.height, &frame.rgba)
                 .map_err(|e| Failure(format!("cannot write {}: {e}", out.display())))?;
-            println!(
+            outln!(
                 "{}: {}x{} in {:.1} ms per frame ({:.0}% of blocks empty)",
                 out.display(),
                 size,
@@ -363,9 +379,9 @@ fn run(cli: Cli) -> Result<(), Failure> {
                     eprintln!("wrote the derivation section of {}", m.display());
                 }
                 if json {
-                    println!("{}", serde_json::to_string(&report).unwrap());
+                    outln!("{}", serde_json::to_string(&report).unwrap());
                 } else if markdown.is_none() {
-                    println!("{}", bench::derive::markdown(&report, &cmd));
+                    outln!("{}", bench::derive::markdown(&report, &cmd));
                 }
                 return Ok(());
             }
@@ -436,9 +452,9 @@ fn run(cli: Cli) -> Result<(), Failure> {
                 eprintln!("wrote {}", m.display());
             }
             if json {
-                println!("{}", serde_json::to_string(&report).expect("the report serialises"));
+                outln!("{}", serde_json::to_string(&report).expect("the report serialises"));
             } else if markdown.is_none() {
-                println!("{}", bench::markdown(&report, &cmd));
+                outln!("{}", bench::markdown(&report, &cmd));
             }
             Ok(())
         }
@@ -461,9 +477,9 @@ fn run(cli: Cli) -> Result<(), Failure> {
                 boxforge_runtime::verify::verify_fetch(&gpu, &d, layout, variant, form, bounds, fetch, points, seed)
                     .map_err(|e| Failure(e.to_string()))?;
             if json {
-                println!("{}", serde_json::to_string(&r).unwrap());
+                outln!("{}", serde_json::to_string(&r).unwrap());
             } else {
-                println!(
+                outln!(
                     "{} ({}, {}, form {}, {} {} fetches) on {}: {} points, max |value error| {:.3e} (range {:.3}), max relative gradient error {:.3e}: {}",
                     r.filter,
                     layout.name(),
@@ -550,14 +566,14 @@ fn run(cli: Cli) -> Result<(), Failure> {
             })?;
             if json {
                 if reports.len() == 1 && !all {
-                    println!("{}", reports[0].to_json());
+                    outln!("{}", reports[0].to_json());
                 } else {
                     let parts: Vec<String> = reports.iter().map(|r| r.to_json()).collect();
-                    println!("[\n{}\n]", parts.join(",\n"));
+                    outln!("[\n{}\n]", parts.join(",\n"));
                 }
             } else {
                 for r in &reports {
-                    println!("{}", r.to_text());
+                    outln!("{}", r.to_text());
                 }
             }
             Ok(())
@@ -609,14 +625,14 @@ fn validate(file: &std::path::Path, entries: &[String], json: bool) -> Result<()
                 "loads": f.total_loads,
             })).collect::<Vec<_>>(),
         });
-        println!("{v}");
+        outln!("{v}");
     } else {
         match &report.error {
-            Some(e) => println!("{} is not valid WGSL:\n{e}", file.display()),
+            Some(e) => outln!("{} is not valid WGSL:\n{e}", file.display()),
             None => {
-                println!("{}: valid", file.display());
+                outln!("{}: valid", file.display());
                 for f in &report.functions {
-                    println!(
+                    outln!(
                         "  {:<32} branches {:>3}  loops {:>3}  kills {}  table lookups {:>3}  loads {:>4}{}",
                         f.name,
                         f.total_branches,
@@ -631,7 +647,7 @@ fn validate(file: &std::path::Path, entries: &[String], json: bool) -> Result<()
         }
         if let Err(e) = &verdict {
             if report.valid {
-                println!("FAILED: {e}");
+                outln!("FAILED: {e}");
             }
         }
     }

@@ -73,11 +73,12 @@ pub fn check_points(points: usize) -> Result<(), String> {
 
 /// `N` of `ml:N`, parsed and bounded.
 pub fn parse_ml_n(text: &str) -> Result<u32, String> {
-    let n: i64 = text.trim().parse().map_err(|_| {
-        format!("ml:{text}: N must be a whole number of samples per edge (about N^3 samples), e.g. ml:41")
-    })?;
+    let n: i64 = text
+        .trim()
+        .parse()
+        .map_err(|_| format!("ml:{text}: ml:N needs a whole number N (about N^3 samples), e.g. ml:41"))?;
     if n < 2 || n > MAX_ML_N as i64 {
-        return Err(format!("ml:{text}: N must be between 2 and {MAX_ML_N} (about N^3 samples), e.g. ml:41"));
+        return Err(format!("ml:{text}: ml:N needs N between 2 and {MAX_ML_N} (about N^3 samples), e.g. ml:41"));
     }
     Ok(n as u32)
 }
