@@ -45,7 +45,7 @@ pub fn run(out: &Path, size: u32, adapter: Option<&str>) -> Result<(), String> {
     // 2. Device and the real volume.
     let gpu = Gpu::new(adapter).map_err(|e| e.to_string())?;
     steps.println(&format!("[demo] device: {}", gpu.describe()));
-    let mni_path = boxforge_runtime::bench::data_file(MNI_FILE)
+    let mni_path = boxforge_runtime::scene::data_file(MNI_FILE)
         .ok_or_else(|| format!("the MNI head data/{MNI_FILE} is missing: run the demo from the repository root"))?;
     let mni = Volume::load_nifti(&mni_path).map_err(|e| format!("{e} (run the demo from the repository root)"))?;
     std::fs::create_dir_all(out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;

@@ -459,7 +459,7 @@ fn run(cli: Cli) -> Result<(), Failure> {
             Ok(())
         }
         Command::Demo { out, size, adapter } => {
-            request::check_render_numbers(size, 0.25, 0.5, 0.0, 0.0).map_err(Failure)?;
+            request::check_image_edge(size).map_err(Failure)?;
             request::check_output_dir(&out, "--out").map_err(Failure)?;
             demo::run(&out, size, adapter.as_deref()).map_err(Failure)
         }

@@ -18,9 +18,7 @@ pub const MAX_POINTS: usize = 1_000_000_000;
 
 /// Image edge, ray step, iso-value and view angles of `render`.
 pub fn check_render_numbers(size: u32, step: f32, iso: f32, azimuth: f32, elevation: f32) -> Result<(), String> {
-    if size == 0 || size > MAX_IMAGE_EDGE {
-        return Err(format!("--size {size}: the image edge must be between 1 and {MAX_IMAGE_EDGE} pixels"));
-    }
+    check_image_edge(size)?;
     if !step.is_finite() || step < STEP_RANGE.0 || step > STEP_RANGE.1 {
         return Err(format!(
             "--step {step}: the ray step must be a number of cells between {} and {} (e.g. --step 0.25)",
@@ -37,6 +35,14 @@ pub fn check_render_numbers(size: u32, step: f32, iso: f32, azimuth: f32, elevat
     }
     if elevation.abs() > 90.0 {
         return Err(format!("--view {azimuth},{elevation}: the elevation must be within -90..90 degrees"));
+    }
+    Ok(())
+}
+
+/// `--size` of `render` and `demo`.
+pub fn check_image_edge(size: u32) -> Result<(), String> {
+    if size == 0 || size > MAX_IMAGE_EDGE {
+        return Err(format!("--size {size}: the image edge must be between 1 and {MAX_IMAGE_EDGE} pixels"));
     }
     Ok(())
 }

@@ -22,6 +22,15 @@ pub fn matched_edge(lattice: &Lattice, samples: f64) -> usize {
     ((n / 2.0).round() as usize * 2).max(4)
 }
 
+/// A file of the repository's `data/` folder: looked up under the working
+/// directory, then where this binary was built from, so `bench` and `demo`
+/// also work when run outside the repository.
+pub fn data_file(name: &str) -> Option<std::path::PathBuf> {
+    let here = std::path::Path::new("data").join(name);
+    let built = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join("data").join(name);
+    [here, built].into_iter().find(|p| p.is_file())
+}
+
 /// `ml:N` (Marschner-Lobb with about N^3 samples), `path.nii[.gz]`, or a raw
 /// file with `raw = Some("nx,ny,nz,type")`.
 pub fn load(

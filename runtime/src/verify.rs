@@ -102,18 +102,16 @@ pub fn gpu_eval(
 /// Values, gradients (xyz, w unused) and the evaluation form that was emitted.
 pub type GpuValues = (Vec<f32>, Vec<[f32; 4]>, EvalForm);
 
-/// [`gpu_eval`] with a forced evaluation form and a bounds policy; also
-/// returns the form that was emitted.
-pub fn gpu_eval_with(
-    gpu: &Gpu,
+/// The module `verify` runs on `vol`: its layout, and linear fetches when
+/// the volume is bound for hardware filtering.
+fn verify_module(
     d: &Derivation,
     vol: &DeviceVolume,
     variant: Variant,
     form: Option<EvalForm>,
     bounds: Bounds,
-    points: &[[f32; 4]],
-) -> Result<GpuValues, GpuError> {
-    let module = emit(
+) -> Result<boxforge::emit::Emitted, GpuError> {
+    emit(
         d,
         &EmitOptions {
             layout: vol.layout,
@@ -126,7 +124,21 @@ pub fn gpu_eval_with(
             ..Default::default()
         },
     )
-    .map_err(|e| GpuError::Runtime(e.to_string()))?;
+    .map_err(|e| GpuError::Runtime(e.to_string()))
+}
+
+/// [`gpu_eval`] with a forced evaluation form and a bounds policy; also
+/// returns the form that was emitted.
+pub fn gpu_eval_with(
+    gpu: &Gpu,
+    d: &Derivation,
+    vol: &DeviceVolume,
+    variant: Variant,
+    form: Option<EvalForm>,
+    bounds: Bounds,
+    points: &[[f32; 4]],
+) -> Result<GpuValues, GpuError> {
+    let module = verify_module(d, vol, variant, form, bounds)?;
     let used = module.stats.form;
     let (v, g) = gpu_eval_source(gpu, &module.source, &module.file_name, &d.filter.name, vol, points)?;
     Ok((v, g, used))
@@ -323,20 +335,7 @@ pub fn verify_fetch(
         }
         _ => DeviceVolume::new(gpu, &vol, layout)?,
     };
-    let module = emit(
-        d,
-        &EmitOptions {
-            layout: dv.layout,
-            variant,
-            kernels: false,
-            command: "boxforge verify".into(),
-            form,
-            bounds,
-            fetch,
-            ..Default::default()
-        },
-    )
-    .map_err(|e| GpuError::Runtime(e.to_string()))?;
+    let module = verify_module(d, &dv, variant, form, bounds)?;
     let used = module.stats.form;
     let evaluator = PointEvaluator::new(gpu, &module.source, &module.file_name, &d.filter.name, &dv)?;
     let (lo, hi) = vol.data.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));

@@ -160,15 +160,6 @@ pub struct External {
     pub like: String,
 }
 
-/// A file of the repository's `data/` folder: looked up under the working
-/// directory, then where this binary was built from, so `bench` and `demo`
-/// also work when run outside the repository.
-pub fn data_file(name: &str) -> Option<std::path::PathBuf> {
-    let here = std::path::Path::new("data").join(name);
-    let built = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join("data").join(name);
-    [here, built].into_iter().find(|p| p.is_file())
-}
-
 impl BenchOptions {
     /// Only the external shader against its generated module (what
     /// `bench --wgsl F --entry E --like L` times unless asked for more).
@@ -196,7 +187,7 @@ impl BenchOptions {
             naive: true,
             naive_filters: ["bcc_linear", "bcc7", "fcc6"].map(String::from).to_vec(),
             render_sizes: vec![256, 512],
-            mni: data_file("mni152_t1_1mm.nii.gz").map(|p| p.display().to_string()),
+            mni: crate::scene::data_file("mni152_t1_1mm.nii.gz").map(|p| p.display().to_string()),
             quality: true,
             references: true,
             external: None,
