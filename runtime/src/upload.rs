@@ -10,8 +10,9 @@ use wgpu::util::DeviceExt;
 pub struct DeviceVolume {
     pub layout: Layout,
     texture_view: Option<wgpu::TextureView>,
-    /// Embedded layout with `fetch = linear`: the texture is bound as
-    /// filterable and a linear clamp-to-edge sampler sits at binding + 4.
+    /// With `fetch = linear`: a linear clamp-to-edge sampler at binding + 4
+    /// (embedded: the texture bound as filterable; packed: the coset slabs
+    /// texture at binding + 5, in `texture_view`).
     sampler: Option<wgpu::Sampler>,
     buffers: Vec<wgpu::Buffer>,
     /// Bytes on the device for the samples.
@@ -74,17 +75,55 @@ impl DeviceVolume {
         }
     }
 
-    /// The embedded layout bound for hardware-filtered fetches (modules
-    /// emitted with `FetchMode::Linear`): a filterable texture and a linear
-    /// clamp-to-edge sampler at binding + 4. Needs FLOAT32_FILTERABLE.
-    pub fn new_filtered(gpu: &Gpu, v: &LatticeVolume) -> Result<DeviceVolume, GpuError> {
+    /// The samples bound for hardware-filtered fetches (modules emitted with
+    /// `FetchMode::Linear`): a linear clamp-to-edge sampler at binding + 4
+    /// and, embedded, the texture bound as filterable; packed, the buffer and
+    /// grid as usual plus the same words as one filterable 3D texture at
+    /// binding + 5, the cosets stacked as slabs along z. Needs FLOAT32_FILTERABLE.
+    pub fn new_filtered(gpu: &Gpu, v: &LatticeVolume, layout: Layout) -> Result<DeviceVolume, GpuError> {
         if !gpu.device.features().contains(wgpu::Features::FLOAT32_FILTERABLE) {
             return Err(GpuError::Runtime(
                 "fetch = linear needs hardware filtering of R32Float textures (FLOAT32_FILTERABLE), which this adapter lacks; use exact fetches".into(),
             ));
         }
-        let mut dv = DeviceVolume::new(gpu, v, Layout::Embedded)?;
+        let mut dv = DeviceVolume::new(gpu, v, layout)?;
         dv.sampler = Some(linear_sampler(gpu, "linear samples"));
+        if layout == Layout::Packed {
+            let (words, grid) = v.packed().map_err(|e| GpuError::Runtime(e.to_string()))?;
+            let cosets = words.len() / (grid[3].max(1) as usize);
+            let depth = grid[2] as u64 * cosets as u64;
+            let max = gpu.limits().max_texture_dimension_3d as u64;
+            if grid[0] as u64 > max || grid[1] as u64 > max || depth > max {
+                return Err(GpuError::Runtime(format!(
+                    "fetch = linear on the packed layout stacks the {cosets} coset grids of {}x{}x{} into one texture {} deep, \
+                     over this adapter's max_texture_dimension_3d ({max}); use exact fetches or a smaller volume",
+                    grid[0], grid[1], grid[2], depth
+                )));
+            }
+            let tex = gpu.checked("upload coset slabs", || {
+                gpu.device.create_texture_with_data(
+                    &gpu.queue,
+                    &wgpu::TextureDescriptor {
+                        label: Some("coset slabs"),
+                        size: wgpu::Extent3d {
+                            width: grid[0] as u32,
+                            height: grid[1] as u32,
+                            depth_or_array_layers: depth as u32,
+                        },
+                        mip_level_count: 1,
+                        sample_count: 1,
+                        dimension: wgpu::TextureDimension::D3,
+                        format: wgpu::TextureFormat::R32Float,
+                        usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+                        view_formats: &[],
+                    },
+                    wgpu::util::TextureDataOrder::LayerMajor,
+                    bytemuck::cast_slice(&words),
+                )
+            })?;
+            dv.texture_view = Some(tex.create_view(&wgpu::TextureViewDescriptor::default()));
+            dv.bytes += words.len() * 4;
+        }
         Ok(dv)
     }
 
@@ -117,31 +156,53 @@ impl DeviceVolume {
                 }
                 e
             }
-            Layout::Packed => vec![
-                wgpu::BindGroupLayoutEntry {
-                    binding: first,
-                    visibility,
-                    ty: wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Storage { read_only: true },
-                        has_dynamic_offset: false,
-                        min_binding_size: None,
+            Layout::Packed => {
+                let mut e = vec![
+                    wgpu::BindGroupLayoutEntry {
+                        binding: first,
+                        visibility,
+                        ty: wgpu::BindingType::Buffer {
+                            ty: wgpu::BufferBindingType::Storage { read_only: true },
+                            has_dynamic_offset: false,
+                            min_binding_size: None,
+                        },
+                        count: None,
                     },
-                    count: None,
-                },
-                wgpu::BindGroupLayoutEntry {
-                    binding: first + 1,
-                    visibility,
-                    ty: wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
-                        has_dynamic_offset: false,
-                        min_binding_size: None,
+                    wgpu::BindGroupLayoutEntry {
+                        binding: first + 1,
+                        visibility,
+                        ty: wgpu::BindingType::Buffer {
+                            ty: wgpu::BufferBindingType::Uniform,
+                            has_dynamic_offset: false,
+                            min_binding_size: None,
+                        },
+                        count: None,
                     },
-                    count: None,
-                },
-            ],
+                ];
+                if self.filtered() {
+                    e.push(wgpu::BindGroupLayoutEntry {
+                        binding: first + 4,
+                        visibility,
+                        ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                        count: None,
+                    });
+                    e.push(wgpu::BindGroupLayoutEntry {
+                        binding: first + 5,
+                        visibility,
+                        ty: wgpu::BindingType::Texture {
+                            sample_type: wgpu::TextureSampleType::Float { filterable: true },
+                            view_dimension: wgpu::TextureViewDimension::D3,
+                            multisampled: false,
+                        },
+                        count: None,
+                    });
+                }
+                e
+            }
         }
     }
 
+    /// Bind-group entries matching [`DeviceVolume::layout_entries`].
     pub fn bind_entries(&self, first: u32) -> Vec<wgpu::BindGroupEntry<'_>> {
         match self.layout {
             Layout::Embedded => {
@@ -154,10 +215,20 @@ impl DeviceVolume {
                 }
                 e
             }
-            Layout::Packed => vec![
-                wgpu::BindGroupEntry { binding: first, resource: self.buffers[0].as_entire_binding() },
-                wgpu::BindGroupEntry { binding: first + 1, resource: self.buffers[1].as_entire_binding() },
-            ],
+            Layout::Packed => {
+                let mut e = vec![
+                    wgpu::BindGroupEntry { binding: first, resource: self.buffers[0].as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: first + 1, resource: self.buffers[1].as_entire_binding() },
+                ];
+                if let (Some(s), Some(view)) = (&self.sampler, &self.texture_view) {
+                    e.push(wgpu::BindGroupEntry { binding: first + 4, resource: wgpu::BindingResource::Sampler(s) });
+                    e.push(wgpu::BindGroupEntry {
+                        binding: first + 5,
+                        resource: wgpu::BindingResource::TextureView(view),
+                    });
+                }
+                e
+            }
         }
     }
 }

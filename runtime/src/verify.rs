@@ -328,12 +328,9 @@ pub fn verify_fetch(
         return Err(GpuError::Runtime("--points must be at least 1".into()));
     }
     let vol = random_volume(d, seed);
-    let dv = match (fetch, layout) {
-        (FetchMode::Linear, Layout::Embedded) => DeviceVolume::new_filtered(gpu, &vol)?,
-        (FetchMode::Linear, _) => {
-            return Err(GpuError::Runtime("fetch = linear needs the embedded layout; use --layout embedded".into()))
-        }
-        _ => DeviceVolume::new(gpu, &vol, layout)?,
+    let dv = match fetch {
+        FetchMode::Linear => DeviceVolume::new_filtered(gpu, &vol, layout)?,
+        FetchMode::Exact => DeviceVolume::new(gpu, &vol, layout)?,
     };
     let module = verify_module(d, &dv, variant, form, bounds)?;
     let used = module.stats.form;

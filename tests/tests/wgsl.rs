@@ -113,9 +113,49 @@ fn linear_fetch_modules_are_branch_free_with_eight_filtered_fetches() {
     let eval_src = e.source.split("fn cc_tricubic_eval(").nth(1).unwrap().split("\n}\n").next().unwrap();
     assert_eq!(eval_src.matches("cc_tricubic_fetch_linear(").count(), 8);
     assert_eq!(eval_src.matches("cc_tricubic_fetch(").count(), 0);
-    // bcc7 has no tensor structure, and bcc12 needs per-coset textures.
+    // bcc7 has no tensor structure, and bcc12 needs per-coset textures: the
+    // embedded layout refuses both and names the packed layout.
     for name in ["bcc7", "bcc12"] {
         let d = boxforge_tests::derive(name);
-        assert!(emit(&d, &EmitOptions { fetch: FetchMode::Linear, ..EmitOptions::default() }).is_err(), "{name}");
+        let err = emit(&d, &EmitOptions { fetch: FetchMode::Linear, ..EmitOptions::default() }).unwrap_err();
+        assert!(err.to_string().contains("--layout packed"), "{name}: {err}");
+    }
+}
+
+/// Packed layout with linear fetches: every catalog filter pairs its coset
+/// samples into filtered fetches; the module validates, stays branch-free,
+/// and eval fetches only through `<f>_fetch_pair` (eval_grad keeps loads).
+#[test]
+fn packed_linear_fetch_modules_pair_coset_samples() {
+    use boxforge::emit::{FetchMode, Layout};
+    for name in boxforge::spec::catalog::names() {
+        let d = boxforge_tests::derive(name);
+        let opts = EmitOptions { layout: Layout::Packed, fetch: FetchMode::Linear, ..EmitOptions::default() };
+        let e = match emit(&d, &opts) {
+            Ok(e) => e,
+            // Lattices without 2Z^s have no packed layout at all.
+            Err(err) => {
+                assert!(err.to_string().contains("2Z^s"), "{name}: {err}");
+                continue;
+            }
+        };
+        assert!(e.file_name.ends_with(".packed.linear.wgsl"), "{}", e.file_name);
+        let r = validate_wgsl(&e.source, &e.file_name);
+        assert!(r.valid, "{name}: {}", r.error.unwrap_or_default());
+        check_branch_free(&r, &[&format!("{name}_eval"), &format!("{name}_eval_grad")]).unwrap();
+        let eval_src = e.source.split(&format!("fn {name}_eval(")).nth(1).unwrap().split("\n}\n").next().unwrap();
+        assert_eq!(eval_src.matches(&format!("{name}_fetch_pair(")).count(), e.stats.fetches_per_eval, "{name}");
+        assert_eq!(eval_src.matches(&format!("{name}_fetch(")).count(), 0, "{name}");
+        let exact = emit(&d, &EmitOptions { layout: Layout::Packed, ..EmitOptions::default() }).unwrap();
+        // Stencils with one sample per coset (cc_trilinear: 8 cosets of 2Z^3) have no pair.
+        assert!(e.stats.fetches_per_eval <= exact.stats.fetches_per_eval, "{name}");
+    }
+    // Issue #8's fetch budgets, checked on what the pairing found.
+    for (name, most) in [("bcc7", 16), ("bcc8", 16), ("fcc6", 12)] {
+        let d = boxforge_tests::derive(name);
+        let opts = EmitOptions { layout: Layout::Packed, fetch: FetchMode::Linear, ..EmitOptions::default() };
+        let n = emit(&d, &opts).unwrap().stats.fetches_per_eval;
+        assert!(n <= most, "{name}: {n} filtered fetches, budget {most}");
+        assert!(n < d.references.iter().map(|r| r.stencil.len()).max().unwrap(), "{name}: no pair");
     }
 }

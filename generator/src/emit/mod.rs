@@ -15,6 +15,7 @@ pub mod factored;
 pub mod fetch_order;
 pub mod forms;
 pub mod horner;
+pub mod linear;
 pub mod locate;
 pub mod naive;
 pub mod plan;
@@ -272,8 +273,12 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
     let naive = opts.variant == Variant::Naive;
     let fac = d.factorisation();
     let mut requested = opts.form.unwrap_or(d.filter.form);
-    if opts.fetch == FetchMode::Linear && requested == EvalForm::Auto && fac.is_some() {
-        // Linear fetches are a property of the factored form.
+    if opts.fetch == FetchMode::Linear
+        && opts.layout == Layout::Embedded
+        && requested == EvalForm::Auto
+        && fac.is_some()
+    {
+        // Embedded linear fetches are a property of the factored form.
         requested = EvalForm::Factored;
     }
     let (form, forms, eval_body, grad_body) = if naive {
@@ -290,31 +295,45 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
     } else {
         choose_form(d, fac.as_ref(), &plan, &sh, name, requested)?
     };
-    let (eval_body, fetches_linear) =
-        if opts.fetch == FetchMode::Linear {
-            let refuse = |why: &str| Error::Spec {
-                origin: format!("filter {name}"),
-                message: format!("fetch = linear {why}; use exact fetches"),
-            };
-            if naive || opts.layout != Layout::Embedded {
-                return Err(refuse("needs the fast variant and the embedded layout"));
+    let (eval_body, fetches_linear) = if opts.fetch == FetchMode::Linear {
+        let refuse = |why: &str| Error::Spec {
+            origin: format!("filter {name}"),
+            message: format!("fetch = linear {why}; use exact fetches"),
+        };
+        if naive {
+            return Err(refuse("needs the fast variant"));
+        }
+        match opts.layout {
+            // Every filter: pairs of one coset's samples, one slab per coset.
+            Layout::Packed => {
+                coset_pivots(&d.filter.lattice)?;
+                let lin = linear::LinearPlan::new(d);
+                (linear::emit_linear_body(d, &plan, &lin, &sh, name), Some(lin.fetches(&plan)))
             }
-            match d.factorisation() {
+            Layout::Embedded => match d.factorisation() {
                 Some(fac) if fac.supports_linear_fetch() && form == EvalForm::Factored => {
                     (factored::emit_factored_linear_body(&fac, &sh, name), Some(fac.linear_fetches()))
                 }
-                Some(_) if form != EvalForm::Factored => return Err(refuse("needs the factored form")),
-                _ => return Err(refuse(
-                    "needs a tensor-product filter on one coset with unit steps (adjacent samples in one texture); \
-                     other filters need per-coset filterable textures, which are not implemented yet",
-                )),
-            }
-        } else {
-            (eval_body, None)
-        };
+                Some(_) if form != EvalForm::Factored => {
+                    return Err(refuse("on the embedded layout needs the factored form"))
+                }
+                _ => {
+                    return Err(refuse(
+                        "on the embedded layout needs a tensor-product filter on one coset with unit steps \
+                         (adjacent samples in one texture); use the packed layout (--layout packed), \
+                         which pairs the samples of each coset in a filterable texture per coset",
+                    ))
+                }
+            },
+        }
+    } else {
+        (eval_body, None)
+    };
     // The factored form adds one constant offset per fetch after each coset's base.
     let vector_adds = match (&fac, form) {
-        (Some(f), EvalForm::Factored) => fetches_linear.map_or(f.fetches() - f.cosets.len(), |_| 0),
+        (Some(f), EvalForm::Factored) if opts.layout == Layout::Embedded || fetches_linear.is_none() => {
+            fetches_linear.map_or(f.fetches() - f.cosets.len(), |_| 0)
+        }
         _ => plan.vector_adds,
     };
     let fetches = match form {
@@ -363,6 +382,14 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
             }
             Layout::Embedded => (String::new(), String::new(), 0, String::new()),
         };
+    // Packed linear fetches: coset slabs stacked along the last axis.
+    let last = AXES[s - 1];
+    let halves: Vec<String> =
+        (0..s).map(|i| if i + 1 == s { format!("0.5 + f32(coset * g.{last})") } else { "0.5".into() }).collect();
+    let slab_offset = sh.fvec(&halves);
+    let dims: Vec<String> =
+        (0..s).map(|i| if i + 1 == s { format!("g.{last} * {cosets}") } else { format!("g.{}", AXES[i]) }).collect();
+    let stack_dims = format!("{}({}({}))", sh.vecf, sh.veci, dims.join(", "));
     let extent_product = if s == 3 { "e.x * e.y * e.z" } else { "e.x * e.y" };
     let delinearize =
         if s == 3 { "vec3<i32>(i % e.x, (i / e.x) % e.y, i / (e.x * e.y))" } else { "vec2<i32>(i % e.x, i / e.x)" };
@@ -387,7 +414,7 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
         layout => opts.layout.name(),
         variant => opts.variant.name(),
         locate => if form == EvalForm::Factored { "tensor product: per coset floor and fraction, no cell location" } else { match plan.locate { Locate::Fold { sort: true } => "fold + sorting network + plane tests", Locate::Fold { sort: false } => "fold + plane tests", Locate::Generic => "generic select over cube classes and cells" } },
-        fetches => fetches,
+        fetches => fetches_linear.unwrap_or(fetches),
         form => form.name(),
         form_costs => forms.iter().map(|f| format!("{} {}/{}", f.form.name(), f.ops_eval, f.ops_eval_grad)).collect::<Vec<_>>().join(", "),
         bounds => opts.bounds.name(),
@@ -416,6 +443,8 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
         prefilter_body => prefilter_body,
         clamp => opts.bounds == Bounds::Clamp,
         linear => opts.fetch == FetchMode::Linear,
+        slab_offset => slab_offset,
+        stack_dims => stack_dims,
     };
     let source = tmpl.render(ctx).map_err(|e| Error::Spec { origin: "templates".into(), message: e.to_string() })?;
     let stats = EmitStats {

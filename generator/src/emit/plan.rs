@@ -60,6 +60,26 @@ pub struct Plan {
     pub matvec_adds: usize,
 }
 
+/// Where a point falls (see [`Plan::locate_f64`]): x = base + M w.
+#[derive(Clone, Debug)]
+pub struct Located {
+    /// Index of the chosen candidate.
+    pub candidate: usize,
+    pub base: IVec,
+    pub m: Vec<IVec>,
+    /// Local coordinates in the chosen candidate's reference piece.
+    pub u: Vec<f64>,
+}
+
+impl Located {
+    /// base + M q for the candidate's offset in `slot`.
+    fn slot_position(&self, c: &Candidate, slot: usize) -> IVec {
+        let q = &c.offsets[slot];
+        let s = q.len();
+        (0..s).map(|i| self.base[i] + (0..s).map(|j| self.m[i][j] * q[j]).sum::<i64>()).collect()
+    }
+}
+
 fn signed_identity(s: usize) -> SignedPerm {
     (0..s).map(|i| (0..s).map(|j| (i == j) as i64).collect()).collect()
 }
@@ -155,8 +175,9 @@ impl Plan {
         r
     }
 
-    /// CPU mirror of the emitted code: (value, gradient) at x.
-    pub fn eval_f64(&self, d: &Derivation, x: &[f64], data: &dyn Fn(&[i64]) -> f64) -> (f64, Vec<f64>) {
+    /// Where x falls: the chosen candidate, its frame and the local
+    /// coordinates of its reference piece (the emitted code's steps in f64).
+    pub fn locate_f64(&self, d: &Derivation, x: &[f64]) -> Located {
         let s = self.dim;
         let (base, m, w, class) = self.frame_f64(x);
         // Last satisfied candidate wins (a select chain).
@@ -177,15 +198,21 @@ impl Plan {
             .map(|i| c.rotation[i].iter().zip(&w).map(|(a, b)| *a as f64 * b).sum::<f64>() + c.translation[i] as f64)
             .collect();
         let u: Vec<f64> = (0..s).map(|i| y[i] - self.grid_offset[i].to_f64() - r.corner[i] as f64).collect();
+        Located { candidate: chosen, base, m, u }
+    }
+
+    /// CPU mirror of the emitted code: (value, gradient) at x.
+    pub fn eval_f64(&self, d: &Derivation, x: &[f64], data: &dyn Fn(&[i64]) -> f64) -> (f64, Vec<f64>) {
+        let s = self.dim;
+        let at = self.locate_f64(d, x);
+        let c = &self.candidates[at.candidate];
         let tab = d.f64_reference(c.reference);
         let mut value = 0.0;
         let mut grad_u = vec![0.0; s];
         for (slot, k) in self.slots[c.reference].iter().enumerate() {
             let Some(k) = k else { continue };
-            let q = &c.offsets[slot];
-            let pos: IVec = (0..s).map(|i| base[i] + (0..s).map(|j| m[i][j] * q[j]).sum::<i64>()).collect();
-            let v = data(&pos);
-            let (pv, pg) = crate::math::poly::eval_poly_f64(&tab.exps, &tab.coeffs[*k], &u);
+            let v = data(&at.slot_position(c, slot));
+            let (pv, pg) = crate::math::poly::eval_poly_f64(&tab.exps, &tab.coeffs[*k], &at.u);
             value += v * pv;
             for i in 0..s {
                 grad_u[i] += v * pg[i];
@@ -194,8 +221,18 @@ impl Plan {
         // grad_x = M R^T grad_y
         let rt = inverse(&c.rotation);
         let gw: Vec<f64> = (0..s).map(|i| (0..s).map(|j| rt[i][j] as f64 * grad_u[j]).sum()).collect();
-        let gx: Vec<f64> = (0..s).map(|i| (0..s).map(|j| m[i][j] as f64 * gw[j]).sum()).collect();
+        let gx: Vec<f64> = (0..s).map(|i| (0..s).map(|j| at.m[i][j] as f64 * gw[j]).sum()).collect();
         (value, gx)
+    }
+
+    /// Lattice position of stencil index `k` of the located candidate's reference.
+    pub fn stencil_position(&self, at: &Located, k: usize) -> IVec {
+        let c = &self.candidates[at.candidate];
+        let slot = self.slots[c.reference]
+            .iter()
+            .position(|x| *x == Some(k))
+            .expect("every stencil index of a reference has a slot");
+        at.slot_position(c, slot)
     }
 
     /// (base b, M, w, class) with x = b + M w.

@@ -575,9 +575,18 @@ pub fn run_with(
                 if can_filter_f32(gpu) && d.factorisation().is_some_and(|f| f.supports_linear_fetch()) {
                     modules.push((Variant::Fast, Some(TAG_LINEAR), EmitOptions { fetch: FetchMode::Linear, ..base }));
                 }
+            } else if can_filter_f32(gpu) {
+                // Packed: pairs of each coset's samples in one filtered fetch,
+                // where the stencil has pairs at all.
+                let lin = boxforge::emit::linear::LinearPlan::new(&d);
+                let plan = boxforge::emit::plan::Plan::new(&d);
+                if lin.fetches(&plan) < plan.fetches() {
+                    let opts = EmitOptions { layout, kernels: false, fetch: FetchMode::Linear, ..Default::default() };
+                    modules.push((Variant::Fast, Some(TAG_LINEAR), opts));
+                }
             }
             let dv_filtered = if modules.iter().any(|m| m.1 == Some(TAG_LINEAR)) {
-                Some(DeviceVolume::new_filtered(gpu, &vol).map_err(e)?)
+                Some(DeviceVolume::new_filtered(gpu, &vol, layout).map_err(e)?)
             } else {
                 None
             };
@@ -588,6 +597,10 @@ pub fn run_with(
                     ("eval", format!("vec4<f32>({name}_eval(p), 0.0, 0.0, 0.0)")),
                     ("eval_grad", format!("{name}_eval_grad(p)")),
                 ] {
+                    if tag == Some(TAG_LINEAR) && layout == Layout::Packed && kind == "eval_grad" {
+                        // eval_grad keeps exact loads: the same code as the exact module.
+                        continue;
+                    }
                     progress(&format!("{name} {} {} {kind}: compile", layout.name(), variant.name()));
                     let src = program(&m.source, "", &call);
                     let sample = if variant == Variant::Naive { &pts[..pts.len().min(8192)] } else { &pts[..] };
@@ -616,8 +629,8 @@ pub fn run_with(
                     find(Layout::Embedded, Variant::Fast, c.kind).map(|f| Ratio::of_rates(&rates[f], &rates[k])),
                     Some("chosen form ÷ dense form".to_string()),
                 ),
-                (Some(TAG_LINEAR), _, _) => (
-                    find(Layout::Embedded, Variant::Fast, c.kind).map(|f| Ratio::of_rates(&rates[k], &rates[f])),
+                (Some(TAG_LINEAR), _, l) => (
+                    find(l, Variant::Fast, c.kind).map(|f| Ratio::of_rates(&rates[k], &rates[f])),
                     Some("linear ÷ exact fetches".to_string()),
                 ),
                 (Some(_), _, _) => (
@@ -904,9 +917,12 @@ pub fn compare_reference(gpu: &Gpu, r: &Reference, points: usize, rounds: usize)
         ));
         return Ok(row);
     }
-    let dv =
-        if linear { DeviceVolume::new_filtered(gpu, &vol) } else { DeviceVolume::new(gpu, &vol, Layout::Embedded) }
-            .map_err(e)?;
+    let dv = if linear {
+        DeviceVolume::new_filtered(gpu, &vol, Layout::Embedded)
+    } else {
+        DeviceVolume::new(gpu, &vol, Layout::Embedded)
+    }
+    .map_err(e)?;
     let ours = program(&m.source, "", &format!("vec4<f32>({name}_eval(p), 0.0, 0.0, 0.0)"));
     let theirs = program(&m.source, &r.source, &format!("vec4<f32>({}(p), 0.0, 0.0, 0.0)", r.entry));
     let a = Job::new(gpu, &ours, &m.file_name, &dv, &pts).map_err(e)?;
