@@ -11,6 +11,9 @@ pub enum Error {
     Io { path: PathBuf, source: std::io::Error },
     #[error("malformed spec {origin}: {message} (see generator/catalog/*.toml for the format)")]
     Spec { origin: String, message: String },
+    /// An emission option that this filter cannot have (the message names the alternative).
+    #[error("{origin}: {message}")]
+    Unsupported { origin: String, message: String },
     #[error("unknown filter '{name}': it is neither a catalog name ({available}) nor a readable .toml spec file")]
     UnknownFilter { name: String, available: String },
     #[error("unknown lattice '{name}': use one of cc, bcc, fcc, square, quincunx, or give `lattice = {{ generators = [[..], ..] }}`")]

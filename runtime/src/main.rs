@@ -77,6 +77,11 @@ enum Command {
         /// Evaluation form for every filter (default: each spec's `form`, `auto`).
         #[arg(long, value_parser = ["auto", "factored", "power", "bb", "dense"])]
         form: Option<String>,
+        /// Fetches in eval: exact loads, or hardware linear filtering (pairs
+        /// of adjacent samples per fetch; fast variant only; packed layout for
+        /// any filter, embedded for one-coset tensor products).
+        #[arg(long, value_parser = ["exact", "linear"], default_value = "exact")]
+        fetch: String,
         /// Do not write: exit 1 if any file in the directory differs (stale).
         #[arg(long)]
         check: bool,
@@ -501,7 +506,8 @@ fn run(cli: Cli) -> Result<(), Failure> {
                 std::process::exit(1)
             }
         }
-        Command::Generate { filters, all, out, layout, variant, form, check } => {
+        Command::Generate { filters, all, out, layout, variant, form, fetch, check } => {
+            let fetch = boxforge::emit::FetchMode::parse(&fetch).expect("clap checked");
             if !check {
                 request::check_output_dir(&out, "--out").map_err(Failure)?;
             }
@@ -517,6 +523,8 @@ fn run(cli: Cli) -> Result<(), Failure> {
             };
             let variants: Vec<Variant> = match &variant {
                 Some(v) => vec![Variant::parse(v).expect("clap checked")],
+                // Linear fetches are a fast-variant feature.
+                None if fetch == boxforge::emit::FetchMode::Linear => vec![Variant::Fast],
                 None => ALL_VARIANTS.to_vec(),
             };
             let mut what = if all { "--all".to_string() } else { filters.join(" ") };
@@ -529,12 +537,29 @@ fn run(cli: Cli) -> Result<(), Failure> {
             if let Some(f) = &form {
                 what.push_str(&format!(" --form {f}"));
             }
+            if fetch == boxforge::emit::FetchMode::Linear {
+                what.push_str(" --fetch linear");
+            }
             let command = format!("boxforge generate {what} -o {}", out.display());
             let started = std::time::Instant::now();
             let derivations = derive_all(&resolved, |d, t| (d, t))?;
             let mut stale = Vec::new();
             for (d, seconds) in &derivations {
-                let files = boxforge::build::output::generated_files(d, &command, &layouts, &variants)?;
+                // Without --layout, linear fetches go where they apply: packed for
+                // any lattice with 2Z^s, embedded for one-coset tensor products.
+                let layouts: Vec<Layout> = if layout.is_none() && fetch == boxforge::emit::FetchMode::Linear {
+                    let mut l = Vec::new();
+                    if d.factorisation().is_some_and(|f| f.supports_linear_fetch()) {
+                        l.push(Layout::Embedded);
+                    }
+                    if boxforge::emit::coset_pivots(&d.filter.lattice).is_ok() {
+                        l.push(Layout::Packed);
+                    }
+                    l
+                } else {
+                    layouts.clone()
+                };
+                let files = boxforge::build::output::generated_files_with(d, &command, &layouts, &variants, fetch)?;
                 if check {
                     for (name, text) in &files {
                         if std::fs::read_to_string(out.join(name)).ok().as_deref() != Some(text.as_str()) {

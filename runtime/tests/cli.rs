@@ -174,3 +174,27 @@ fn a_reader_that_stops_early_is_not_a_panic() {
     assert!(!stderr.contains("panicked"), "{stderr}");
     assert!(out.status.success(), "{:?}: {stderr}", out.status);
 }
+
+/// `generate --fetch linear` writes the linear modules where they apply
+/// (bcc7: packed only; cc_tricubic: both layouts); forcing the embedded
+/// layout on bcc7 is one line naming the packed layout.
+#[test]
+fn generate_with_linear_fetches_picks_the_layouts_that_apply() {
+    let dir = std::env::temp_dir().join(format!("boxforge-cli-linear-{}", std::process::id()));
+    let d = dir.to_str().unwrap();
+    let out = boxforge(&["generate", "bcc7", "cc_tricubic", "--fetch", "linear", "-o", d]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let mut files: Vec<String> =
+        std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name().into_string().unwrap()).collect();
+    files.sort();
+    let wgsl: Vec<&String> = files.iter().filter(|f| f.ends_with(".wgsl")).collect();
+    assert_eq!(wgsl, ["bcc7.packed.linear.wgsl", "cc_tricubic.embedded.linear.wgsl", "cc_tricubic.packed.linear.wgsl"]);
+    let src = std::fs::read_to_string(dir.join("bcc7.packed.linear.wgsl")).unwrap();
+    assert!(src.contains("--fetch linear") && src.contains("bcc7_fetch_pair"));
+    let refused = boxforge(&["generate", "bcc7", "--fetch", "linear", "--layout", "embedded", "-o", d]);
+    assert_eq!(refused.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&refused.stderr);
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(err.contains("--layout packed"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

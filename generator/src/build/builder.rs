@@ -173,9 +173,10 @@ impl Builder {
     }
 
     /// Fetch mode of `eval` (default [`FetchMode::Exact`]);
-    /// [`FetchMode::Linear`] uses hardware trilinear filtering where the
-    /// filter allows it (see [`FetchMode`]) and fails otherwise. The module
-    /// is written as `<filter>.embedded.linear.wgsl`.
+    /// [`FetchMode::Linear`] uses hardware linear filtering: on the packed
+    /// layout for any filter, on the embedded layout for one-coset tensor
+    /// products (see [`FetchMode`]); [`Builder::generate`] fails otherwise.
+    /// The module is written as `<filter>.<layout>.linear.wgsl`.
     pub fn fetch(mut self, f: FetchMode) -> Self {
         self.fetch = f;
         self

@@ -3,7 +3,7 @@
 
 use crate::build::report::Report;
 use crate::derive::Derivation;
-use crate::emit::{emit, EmitOptions, EmitStats, Layout, Variant};
+use crate::emit::{emit, EmitOptions, EmitStats, FetchMode, Layout, Variant};
 use crate::error::{Error, Result};
 use std::path::{Path, PathBuf};
 
@@ -36,11 +36,29 @@ pub fn generated_files(
     layouts: &[Layout],
     variants: &[Variant],
 ) -> Result<Vec<(String, String)>> {
+    generated_files_with(d, command, layouts, variants, FetchMode::Exact)
+}
+
+/// [`generated_files`] with a fetch mode for every module
+/// (`FetchMode::Linear` writes `<filter>.<layout>.linear.wgsl`).
+///
+/// # Errors
+///
+/// As [`generated_files`], and [`Error::Spec`] where linear fetches do not
+/// apply (the naive variant; the embedded layout of a filter that is not a
+/// one-coset tensor product).
+pub fn generated_files_with(
+    d: &Derivation,
+    command: &str,
+    layouts: &[Layout],
+    variants: &[Variant],
+    fetch: FetchMode,
+) -> Result<Vec<(String, String)>> {
     let mut files = Vec::new();
     let mut stats = Vec::new();
     for &layout in layouts {
         for &variant in variants {
-            let opts = EmitOptions { layout, variant, command: command.to_string(), ..EmitOptions::default() };
+            let opts = EmitOptions { layout, variant, command: command.to_string(), fetch, ..EmitOptions::default() };
             let e = emit(d, &opts)?;
             stats.push(e.stats);
             files.push((e.file_name, e.source));

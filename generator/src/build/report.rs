@@ -41,6 +41,8 @@ pub struct Report {
     pub shaders: Vec<crate::emit::EmitStats>,
     /// Hardware-filtered fetches, where the filter allows them.
     pub linear_fetch: Option<LinearFetchReport>,
+    /// Hardware-filtered fetches on the packed layout (pairs per coset).
+    pub linear_fetch_packed: Option<PackedLinearFetchReport>,
     /// The size of the derivation: the estimate it was admitted on, and the
     /// polynomials it derived.
     pub work: WorkReport,
@@ -79,37 +81,84 @@ pub struct LinearFetchReport {
     pub rms_error_8bit_weights: f64,
 }
 
+/// Precision of `fetch = linear` on the packed layout (every filter whose
+/// stencil has samples adjacent in a coset grid): pairs per coset, the
+/// exact evidence that their weights are non-negative, and the CPU
+/// emulation of the interpolation as for [`LinearFetchReport`].
+#[derive(Clone, Debug, Serialize)]
+pub struct PackedLinearFetchReport {
+    pub fetches: usize,
+    pub exact_loads: usize,
+    pub non_negative: crate::emit::linear::NonNegativity,
+    pub points: usize,
+    pub max_error_float_weights: f64,
+    pub max_error_8bit_weights: f64,
+    pub rms_error_8bit_weights: f64,
+}
+
+/// Deterministic numbers in [0, 1) (SplitMix64 of the input).
+fn hash01(mut z: u64) -> f64 {
+    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    (z ^ (z >> 31)) as f64 / u64::MAX as f64
+}
+
+/// Random data in [0, 1) per lattice point.
+fn hashed_data(j: &[i64]) -> f64 {
+    hash01(j.iter().fold(17u64, |h, &x| h.wrapping_mul(1_000_003).wrapping_add(x as u64)))
+}
+
+const PRECISION_POINTS: usize = 2000;
+
+/// (max error with float weights, max and RMS error with 8-bit weights) of
+/// `linear(x, frac_bits)` against the exact evaluator at seeded points.
+fn linear_errors(d: &Derivation, linear: &dyn Fn(&[f64], Option<u32>) -> f64) -> (f64, f64, f64) {
+    let s = d.facts.dim;
+    let (mut max_f, mut max_8, mut sum2) = (0f64, 0f64, 0f64);
+    for i in 0..PRECISION_POINTS {
+        let x: Vec<f64> = (0..s).map(|c| 20.0 * hash01((i * 7 + c) as u64)).collect();
+        let exact = d.eval_f64(&x, &hashed_data).0;
+        max_f = max_f.max((linear(&x, None) - exact).abs());
+        let e8 = (linear(&x, Some(8)) - exact).abs();
+        max_8 = max_8.max(e8);
+        sum2 += e8 * e8;
+    }
+    (max_f, max_8, (sum2 / PRECISION_POINTS as f64).sqrt())
+}
+
 fn linear_fetch_report(d: &Derivation) -> Option<LinearFetchReport> {
     let fac = d.factorisation()?;
     if !fac.supports_linear_fetch() {
         return None;
     }
-    let s = d.facts.dim;
-    // Deterministic data in [0, 1) and points (SplitMix64).
-    let hash = |mut z: u64| {
-        z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        (z ^ (z >> 31)) as f64 / u64::MAX as f64
-    };
-    let data = |j: &[i64]| hash(j.iter().fold(17u64, |h, &x| h.wrapping_mul(1_000_003).wrapping_add(x as u64)));
-    let points = 2000;
-    let (mut max_f, mut max_8, mut sum2) = (0f64, 0f64, 0f64);
-    for i in 0..points {
-        let x: Vec<f64> = (0..s).map(|c| 20.0 * hash((i * 7 + c) as u64)).collect();
-        let exact = d.eval_f64(&x, &data).0;
-        max_f = max_f.max((fac.eval_linear_f64(&x, &data, None) - exact).abs());
-        let e8 = (fac.eval_linear_f64(&x, &data, Some(8)) - exact).abs();
-        max_8 = max_8.max(e8);
-        sum2 += e8 * e8;
-    }
+    let (max_f, max_8, rms) = linear_errors(d, &|x, bits| fac.eval_linear_f64(x, &hashed_data, bits));
     Some(LinearFetchReport {
         fetches: fac.linear_fetches(),
         exact_loads: fac.fetches(),
-        points,
+        points: PRECISION_POINTS,
         max_error_float_weights: max_f,
         max_error_8bit_weights: max_8,
-        rms_error_8bit_weights: (sum2 / points as f64).sqrt(),
+        rms_error_8bit_weights: rms,
+    })
+}
+
+fn packed_linear_fetch_report(d: &Derivation) -> Option<PackedLinearFetchReport> {
+    crate::emit::coset_pivots(&d.filter.lattice).ok()?;
+    let plan = crate::emit::plan::Plan::new(d);
+    let lin = crate::emit::linear::LinearPlan::new(d);
+    if lin.fetches(&plan) >= plan.fetches() {
+        return None;
+    }
+    let (max_f, max_8, rms) = linear_errors(d, &|x, bits| lin.eval_f64(d, &plan, x, &hashed_data, bits));
+    Some(PackedLinearFetchReport {
+        fetches: lin.fetches(&plan),
+        exact_loads: plan.fetches(),
+        non_negative: lin.proof.clone(),
+        points: PRECISION_POINTS,
+        max_error_float_weights: max_f,
+        max_error_8bit_weights: max_8,
+        rms_error_8bit_weights: rms,
     })
 }
 
@@ -264,6 +313,7 @@ impl Report {
             },
             shaders: vec![],
             linear_fetch: linear_fetch_report(d),
+            linear_fetch_packed: packed_linear_fetch_report(d),
             work: WorkReport { estimate: d.estimate, polynomials, coefficients_listed: detailed },
             derivation_seconds: None,
             cells: arr
@@ -445,6 +495,14 @@ impl Report {
                 s,
                 "\n### Linear fetches\n\n`fetch = linear` (Builder::fetch): {} hardware-filtered fetches instead of {} exact loads in eval. CPU emulation of the hardware interpolation at {} random points on random data in [0, 1]: max error {:.1e} with float weights (lavapipe), {:.1e} (RMS {:.1e}) with weights rounded to 8 fractional bits (typical GPU texture units).",
                 l.fetches, l.exact_loads, l.points, l.max_error_float_weights, l.max_error_8bit_weights, l.rms_error_8bit_weights
+            );
+        }
+        if let Some(l) = &self.linear_fetch_packed {
+            let p = &l.non_negative;
+            let _ = writeln!(
+                s,
+                "\n### Linear fetches, packed layout\n\n`fetch = linear` with `layout = packed`: {} hardware-filtered fetches instead of {} exact loads in eval (pairs of samples adjacent in one coset's grid, a maximum matching per reference piece). Weights non-negative: {} of {} by their Bernstein-Bezier coefficients (exact), {} by the box-spline theorem. CPU emulation at {} random points on random data in [0, 1]: max error {:.1e} with float weights (lavapipe), {:.1e} (RMS {:.1e}) with weights rounded to 8 fractional bits.",
+                l.fetches, l.exact_loads, p.by_bernstein_coefficients, p.weights, p.by_box_spline_theorem, l.points, l.max_error_float_weights, l.max_error_8bit_weights, l.rms_error_8bit_weights
             );
         }
         let _ = writeln!(

@@ -121,11 +121,15 @@ pub enum FetchMode {
     /// One exact `textureLoad` (or buffer read) per stencil sample.
     #[default]
     Exact,
-    /// Hardware trilinear filtering: pairs of adjacent samples with
-    /// non-negative weights become one `textureSampleLevel` (tensor-product
-    /// filters on one coset; embedded layout; a filterable texture and a
-    /// linear sampler at binding + 4). Real GPUs interpolate with about 8-bit
-    /// weights; `eval_grad` keeps exact loads.
+    /// Hardware linear filtering: pairs of adjacent samples (box-spline
+    /// weights are non-negative) become one `textureSampleLevel` at the
+    /// weighted position. Packed layout: any filter, pairs within each coset
+    /// grid (a linear sampler at binding + 4, the coset slabs texture at
+    /// binding + 5; see [`linear`]). Embedded layout: one-coset tensor
+    /// products in the factored form, groups of 2^s as trilinear fetches
+    /// (a filterable texture and a linear sampler at binding + 4). Real GPUs
+    /// interpolate with about 8-bit weights; `eval_grad` keeps exact loads
+    /// (derivative weights change sign).
     Linear,
 }
 
@@ -253,10 +257,11 @@ pub fn file_name(filter: &str, layout: Layout, variant: Variant) -> String {
 /// # Errors
 ///
 /// [`Error::EmitCap`] when the derivation has more polynomials than
-/// `caps.max_emitted_polynomials`; [`Error::Spec`] when the options cannot be met
-/// (`form = "factored"` on a filter that does not factor, linear fetches outside
-/// the fast embedded factored case, the packed layout on a lattice without 2Z^s)
-/// or a template fails to render.
+/// `caps.max_emitted_polynomials`; [`Error::Unsupported`] for linear fetches
+/// where they do not apply (the naive variant; the embedded layout outside the
+/// one-coset tensor-product case); [`Error::Spec`] when other options cannot be
+/// met (`form = "factored"` on a filter that does not factor, the packed layout
+/// on a lattice without 2Z^s) or a template fails to render.
 pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
     let polynomials = d.polynomials();
     if polynomials > d.filter.caps.max_emitted_polynomials {
@@ -296,12 +301,12 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
         choose_form(d, fac.as_ref(), &plan, &sh, name, requested)?
     };
     let (eval_body, fetches_linear) = if opts.fetch == FetchMode::Linear {
-        let refuse = |why: &str| Error::Spec {
+        let refuse = |why: &str| Error::Unsupported {
             origin: format!("filter {name}"),
-            message: format!("fetch = linear {why}; use exact fetches"),
+            message: format!("fetch = linear {why}"),
         };
         if naive {
-            return Err(refuse("needs the fast variant"));
+            return Err(refuse("needs the fast variant; use --variant fast or exact fetches"));
         }
         match opts.layout {
             // Every filter: pairs of one coset's samples, one slab per coset.
@@ -321,7 +326,7 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
                     return Err(refuse(
                         "on the embedded layout needs a tensor-product filter on one coset with unit steps \
                          (adjacent samples in one texture); use the packed layout (--layout packed), \
-                         which pairs the samples of each coset in a filterable texture per coset",
+                         which pairs the samples of each coset in a filterable texture, or exact fetches",
                     ))
                 }
             },
