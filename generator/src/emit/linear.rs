@@ -155,7 +155,7 @@ fn tensor_bernstein_non_negative(p: &Poly, lo: &[Q], hi: &[Q]) -> bool {
         let stride = side.pow(axis as u32);
         let h = &hi[axis] - &lo[axis];
         for start in 0..a.len() {
-            if (start / stride) % side != 0 {
+            if !(start / stride).is_multiple_of(side) {
                 continue; // not the first entry of a fibre along this axis
             }
             let fibre: Vec<Q> = (0..side).map(|k| a[start + k * stride].clone()).collect();
