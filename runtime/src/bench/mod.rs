@@ -1166,6 +1166,22 @@ pub fn markdown(r: &BenchReport, command: &str) -> String {
             row.bytes.map(|x| x.to_string()).unwrap_or_default(),
         );
     }
+    let linear: Vec<String> = r
+        .rows
+        .iter()
+        .filter(|x| x.variant.contains(TAG_LINEAR) && x.kind == "eval")
+        .filter_map(|x| {
+            let (cell, _) = ratio_cells(&x.ratio);
+            (!cell.is_empty()).then(|| format!("{} {} {} fetches: {cell}", x.filter, x.layout, x.fetches.unwrap_or(0)))
+        })
+        .collect();
+    if !linear.is_empty() {
+        let _ = writeln!(
+            s,
+            "\n### Linear fetches\n\nlinear ÷ exact fetches, eval, on this adapter: {}. A filtered fetch pays off where a texture unit interpolates at the cost of one load. lavapipe (llvmpipe) filters in software, so there a filtered fetch costs more than a texel load, and the per-sample weights (their pair sums and ratios) cost more arithmetic than the combined forms of exact loads: pairs that each replace two loads (bcc7, bcc8, fcc6 on the packed layout) are expected to lose on lavapipe, while trilinear fetches that each replace eight (the tricubic, embedded) win. Run `boxforge bench` on a GPU before choosing.",
+            linear.join("; ")
+        );
+    }
     let naive: Vec<f64> = r.rows.iter().filter(|x| x.variant == "naive").filter_map(|x| x.ratio_to_baseline).collect();
     let this_run = if naive.is_empty() {
         "no naive variant was timed in this run".to_string()
