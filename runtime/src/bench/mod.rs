@@ -79,6 +79,37 @@ pub struct ReferenceRow {
     pub agrees: bool,
     /// Why the comparison is invalid or was skipped.
     pub note: Option<String>,
+    /// The generated eval cut after its fetches (same locate, same loads,
+    /// the mean of the samples) ÷ the reference, in the same rounds: the
+    /// most any evaluation with these loads could reach.
+    pub loads_only_ratio: Option<Ratio>,
+}
+
+/// The generated `<name>_eval` cut after its last fetch, returning the mean
+/// of the fetched samples as `<name>_loads_only`: the same point location,
+/// addressing and loads with none of the arithmetic after them. None when
+/// the body has no fetch lines of the form `let f = <name>_fetch...`.
+pub fn loads_only(module: &str, name: &str) -> Option<String> {
+    let start = module.find(&format!("fn {name}_eval(p: "))?;
+    let open = start + module[start..].find('{')? + 1;
+    let end = open + module[open..].find("\n}\n")?;
+    let lines: Vec<&str> = module[open..end].lines().collect();
+    let call = format!("{name}_fetch");
+    let last = lines.iter().rposition(|l| l.contains(&call))?;
+    let fetched: Vec<&str> = lines[..=last]
+        .iter()
+        .filter(|l| l.contains(&call))
+        .filter_map(|l| l.trim().strip_prefix("let ")?.split(' ').next())
+        .collect();
+    if fetched.is_empty() {
+        return None;
+    }
+    Some(format!(
+        "fn {name}_loads_only(p: vec3<f32>) -> f32 {{\n{}\n    return ({}) * {:?};\n}}\n",
+        lines[..=last].join("\n"),
+        fetched.join(" + "),
+        1.0f32 / fetched.len() as f32
+    ))
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -909,6 +940,7 @@ pub fn compare_reference(gpu: &Gpu, r: &Reference, points: usize, rounds: usize)
         rel_diff: None,
         agrees: false,
         note: None,
+        loads_only_ratio: None,
     };
     if references::uses_sampler(&r.source) && !can_filter_f32(gpu) {
         row.note = Some(format!(
@@ -948,10 +980,21 @@ pub fn compare_reference(gpu: &Gpu, r: &Reference, points: usize, rounds: usize)
         ));
         return Ok(row);
     }
-    let rates = timed_rounds(gpu, &[&a, &b], rounds).map_err(e)?;
+    // The ceiling of exact loads: the generated eval cut after its fetches.
+    let ceiling = match loads_only(&m.source, &name) {
+        Some(f) if !linear => {
+            let src = program(&m.source, &f, &format!("vec4<f32>({name}_loads_only(p), 0.0, 0.0, 0.0)"));
+            Some(Job::new(gpu, &src, &format!("{name} loads only"), &dv, &pts).map_err(e)?)
+        }
+        _ => None,
+    };
+    let mut jobs = vec![&a, &b];
+    jobs.extend(ceiling.as_ref());
+    let rates = timed_rounds(gpu, &jobs, rounds).map_err(e)?;
     row.generated_evals_per_s = Some(median(&rates[0]));
     row.reference_evals_per_s = Some(median(&rates[1]));
     row.ratio = Some(Ratio::of_rates(&rates[0], &rates[1]));
+    row.loads_only_ratio = rates.get(2).map(|c| Ratio::of_rates(c, &rates[1]));
     Ok(row)
 }
 
@@ -1107,9 +1150,9 @@ pub fn markdown(r: &BenchReport, command: &str) -> String {
     );
     let _ = writeln!(
         s,
-        "## Generated vs hand-written\n\nThe generated `<filter>_eval` beside hand-written shaders (runtime/references/, embedded in the binary; each cites its source), on the same random points of a random 64^3-ish volume, after checking max |generated - reference| < {:.0e} of the data range on those points (a comparison that fails the check is marked INVALID and not timed). Ratio: generated ÷ reference evals/s (above 1: the generated code is faster). Ops: `boxforge::emit::count_ops` on the generated eval body; on the reference, the same count over its entry function and, per call site, its own helpers (a vec4 `dot` counts 7), calls to `<filter>_fetch` excluded on both sides; fetches: texel loads over the call tree (naga) plus filtered fetches.\n", REFERENCE_TOLERANCE
+        "## Generated vs hand-written\n\nThe generated `<filter>_eval` beside hand-written shaders (runtime/references/, embedded in the binary; each cites its source), on the same random points of a random 64^3-ish volume, after checking max |generated - reference| < {:.0e} of the data range on those points (a comparison that fails the check is marked INVALID and not timed). Ratio: generated ÷ reference evals/s (above 1: the generated code is faster). Ops: `boxforge::emit::count_ops` on the generated eval body; on the reference, the same count over its entry function and, per call site, its own helpers (a vec4 `dot` counts 7), calls to `<filter>_fetch` excluded on both sides; fetches: texel loads over the call tree (naga) plus filtered fetches. Loads only: the generated eval cut after its fetches (same point location, addressing and clamped loads, returning the mean of the samples), timed in the same rounds, ÷ the reference: no evaluation with these loads can be faster, so it bounds the ratio reachable with exact loads on this adapter.\n", REFERENCE_TOLERANCE
     );
-    let _ = writeln!(s, "| generated | reference | fetches (gen / ref) | ops (gen / ref) | generated evals/s | reference evals/s | ratio median [min..max] | tie? | max \\|diff\\| (of range) | source |\n|---|---|---|---|---|---|---|---|---|---|");
+    let _ = writeln!(s, "| generated | reference | fetches (gen / ref) | ops (gen / ref) | generated evals/s | reference evals/s | ratio median [min..max] | tie? | loads only ÷ reference | max \\|diff\\| (of range) | source |\n|---|---|---|---|---|---|---|---|---|---|---|");
     for x in &r.references {
         let (ratio, tie) = ratio_cells(&x.ratio);
         let diff = match (x.max_abs_diff, x.rel_diff) {
@@ -1127,7 +1170,7 @@ pub fn markdown(r: &BenchReport, command: &str) -> String {
         };
         let _ = writeln!(
             s,
-            "| `{}` | {} (`{}`) | {} / {} | {} / {} | {} | {} | {}{} | {} | {} | {} |",
+            "| `{}` | {} (`{}`) | {} / {} | {} / {} | {} | {} | {}{} | {} | {} | {} | {} |",
             x.generated,
             x.reference,
             x.entry,
@@ -1140,12 +1183,13 @@ pub fn markdown(r: &BenchReport, command: &str) -> String {
             ratio,
             if status.is_empty() { String::new() } else { format!(" {status}") },
             tie,
+            ratio_cells(&x.loads_only_ratio).0,
             diff,
             x.citation
         );
     }
     if r.references.is_empty() {
-        let _ = writeln!(s, "| (no references in this run) | | | | | | | | | |");
+        let _ = writeln!(s, "| (no references in this run) | | | | | | | | | | |");
     }
     let _ = writeln!(s, "\n## Evaluation throughput\n\n| filter | layout | variant | kind | evals/s | ratio median [min..max] | tie? | baseline | fetches | ops | sample bytes |\n|---|---|---|---|---|---|---|---|---|---|---|");
     for row in r.rows.iter().filter(|x| x.evals_per_s.is_some()) {
@@ -1247,4 +1291,27 @@ pub fn markdown(r: &BenchReport, command: &str) -> String {
         );
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The loads-only cut keeps the eval's point location and every fetch,
+    /// drops the arithmetic after them, and is valid WGSL beside the module.
+    #[test]
+    fn loads_only_keeps_every_fetch_and_nothing_after() {
+        for name in ["bcc7", "fcc6", "cc_tricubic"] {
+            let d = derive(name).unwrap();
+            let m = emit(&d, &EmitOptions { kernels: false, ..Default::default() }).unwrap();
+            let cut = loads_only(&m.source, name).unwrap();
+            let call = format!("{name}_fetch(");
+            assert_eq!(cut.matches(&call).count(), m.stats.fetches_per_eval, "{name}");
+            let eval = m.source.split(&format!("fn {name}_eval(")).nth(1).unwrap().split("\n}\n").next().unwrap();
+            assert!(boxforge::emit::count_ops(&cut) < boxforge::emit::count_ops(eval), "{name}: nothing was cut");
+            let r = boxforge::validate::validate_wgsl(&format!("{}\n{cut}", m.source), name);
+            assert!(r.valid, "{name}: {:?}", r.error);
+        }
+        assert!(loads_only("fn x_eval(p: vec3<f32>) -> f32 {\n    return 1.0;\n}\n", "x").is_none());
+    }
 }
