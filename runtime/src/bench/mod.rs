@@ -49,6 +49,10 @@ pub struct BenchRow {
     pub fetches: Option<usize>,
     pub ops: Option<usize>,
     pub bytes: Option<usize>,
+    /// Linear fetches: max |value - the exact-load baseline's value| on the
+    /// timed points, as a fraction of the data range (this adapter's filtering).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_rel_diff_to_baseline: Option<f64>,
 }
 
 /// The generated evaluation timed beside a hand-written one.
@@ -654,7 +658,19 @@ pub fn run_with(
         let find = |layout: Layout, variant: Variant, kind: &str| {
             cs.iter().position(|c| c.layout == layout && c.variant == variant && c.kind == kind && c.tag.is_none())
         };
+        let range = {
+            let (lo, hi) = vol.data.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &x| (a.min(x), b.max(x)));
+            (hi - lo).max(f32::MIN_POSITIVE) as f64
+        };
         for (k, c) in cs.iter().enumerate() {
+            // Filtered values against the exact loads on the same points.
+            let linear_diff = match (c.tag, find(c.layout, Variant::Fast, c.kind)) {
+                (Some(TAG_LINEAR), Some(f)) => {
+                    let (a, b) = (c.job.outputs(gpu).map_err(e)?, cs[f].job.outputs(gpu).map_err(e)?);
+                    Some(a.iter().zip(&b).map(|(x, y)| (x[0] as f64 - y[0] as f64).abs()).fold(0f64, f64::max) / range)
+                }
+                _ => None,
+            };
             let (ratio, baseline) = match (c.tag, c.variant, c.layout) {
                 (Some(TAG_DENSE), _, _) => (
                     find(Layout::Embedded, Variant::Fast, c.kind).map(|f| Ratio::of_rates(&rates[f], &rates[k])),
@@ -696,6 +712,7 @@ pub fn run_with(
                 fetches: Some(c.fetches),
                 ops: Some(c.ops),
                 bytes: Some(c.bytes),
+                max_rel_diff_to_baseline: linear_diff,
             });
         }
         if name == pair.0 || name == pair.1 {
@@ -731,6 +748,7 @@ pub fn run_with(
             fetches: Some(m.stats.fetches_per_eval * 7),
             ops: None,
             bytes: None,
+            max_rel_diff_to_baseline: None,
         });
         gradient.push(GradientRow {
             filter: name.clone(),
@@ -771,6 +789,7 @@ pub fn run_with(
                 fetches: None,
                 ops: None,
                 bytes: None,
+                max_rel_diff_to_baseline: None,
             });
         }
     }
@@ -882,6 +901,7 @@ fn render_rows(name: &str, kind: &str, ms: &[(f64, f64)]) -> Vec<BenchRow> {
         fetches: None,
         ops: None,
         bytes: None,
+        max_rel_diff_to_baseline: None,
     };
     vec![row("fast, skipping", median(&skip), None), row("fast, no skipping", median(&noskip), Some(ratio))]
 }
@@ -1216,7 +1236,12 @@ pub fn markdown(r: &BenchReport, command: &str) -> String {
         .filter(|x| x.variant.contains(TAG_LINEAR) && x.kind == "eval")
         .filter_map(|x| {
             let (cell, _) = ratio_cells(&x.ratio);
-            (!cell.is_empty()).then(|| format!("{} {} {} fetches: {cell}", x.filter, x.layout, x.fetches.unwrap_or(0)))
+            let err = x
+                .max_rel_diff_to_baseline
+                .map(|d| format!(", max |linear - exact| {d:.1e} of the range"))
+                .unwrap_or_default();
+            (!cell.is_empty())
+                .then(|| format!("{} {} {} fetches: {cell}{err}", x.filter, x.layout, x.fetches.unwrap_or(0)))
         })
         .collect();
     if !linear.is_empty() {
