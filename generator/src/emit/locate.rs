@@ -13,6 +13,9 @@ pub enum PieceForm {
     /// BB coefficients with shared subexpressions, de Casteljau (power form
     /// with Horner on non-simplicial pieces).
     Bb,
+    /// Linear-form (ridge) form: sums of products of powers of knot-plane
+    /// linear forms, weights with shared subexpressions.
+    Ridge,
 }
 
 use super::{forms::*, naive::*, writer::*};
@@ -276,7 +279,11 @@ pub(crate) fn emit_eval_body(
             (Some(bb), PieceForm::Dense | PieceForm::Bb) => Form::Bb(bb),
             _ => Form::Power(&forms.polys),
         };
-        let (indices, weights) = form_weights(&form);
+        let ridge = (piece == PieceForm::Ridge && !naive).then(|| d.ridge(r));
+        let (indices, weights) = match ridge {
+            Some(rf) => (vec![], rf.groups.iter().map(|g| g.weights.clone()).collect()),
+            None => form_weights(&form),
+        };
         // samples per stencil index, via the slot mapping.
         let nst = d.references[r].stencil.len();
         let mut per_k = vec![String::from("0.0"); nst];
@@ -311,7 +318,14 @@ pub(crate) fn emit_eval_body(
             acc
         };
         let (v, g) = match (&form, piece) {
-            (Form::Power(_), PieceForm::Power | PieceForm::Bb) if !naive => {
+            _ if ridge.is_some() => {
+                let rf = ridge.expect("checked by the guard");
+                let vars: Vec<String> = (0..sh.s).map(|i| format!("{u}.{}", AXES[i])).collect();
+                let (v, g) = crate::emit::ridge::emit_ridge(&mut body, rf, &coeffs, &vars, grad);
+                let v = body.bind("v", &v);
+                (v, grad.then(|| body.bind("g", &sh.fvec(&g))))
+            }
+            (Form::Power(_), PieceForm::Power | PieceForm::Bb | PieceForm::Ridge) if !naive => {
                 let vars: Vec<String> = (0..sh.s).map(|i| format!("{u}.{}", AXES[i])).collect();
                 let monomials: Vec<(Vec<u32>, String)> = indices.iter().cloned().zip(coeffs.iter().cloned()).collect();
                 let (v, g) = crate::emit::horner::emit_horner(&mut body, &monomials, &vars, grad);
