@@ -280,8 +280,9 @@ pub(crate) fn emit_eval_body(
             _ => Form::Power(&forms.polys),
         };
         let ridge = (piece == PieceForm::Ridge && !naive).then(|| d.ridge(r));
+        // The ridge form writes its sample combinations with its evaluation (below).
         let (indices, weights) = match ridge {
-            Some(rf) => (vec![], rf.groups.iter().map(|g| g.weights.clone()).collect()),
+            Some(_) => (vec![], vec![]),
             None => form_weights(&form),
         };
         // samples per stencil index, via the slot mapping.
@@ -321,9 +322,24 @@ pub(crate) fn emit_eval_body(
             _ if ridge.is_some() => {
                 let rf = ridge.expect("checked by the guard");
                 let vars: Vec<String> = (0..sh.s).map(|i| format!("{u}.{}", AXES[i])).collect();
-                let (v, g) = crate::emit::ridge::emit_ridge(&mut body, rf, &coeffs, &vars, grad);
-                let v = body.bind("v", &v);
-                (v, grad.then(|| body.bind("g", &sh.fvec(&g))))
+                // The plain grouping and the merged one (H * affine multipliers):
+                // keep the piece's cheaper code.
+                let mut best: Option<(usize, Body, String, Option<String>)> = None;
+                for form in [rf.clone(), rf.merged()] {
+                    let mut b = Body { text: String::new(), next: body.next, indent: body.indent };
+                    let coeffs = crate::emit::cse::LinearMap::shared(&form.rows()).emit(&mut b, &per_k, "b");
+                    let (v, g) = crate::emit::ridge::emit_ridge(&mut b, &form, &coeffs, &vars, grad);
+                    let v = b.bind("v", &v);
+                    let g = grad.then(|| b.bind("g", &sh.fvec(&g)));
+                    let ops = count_ops(&b.text);
+                    if best.as_ref().is_none_or(|(o, ..)| ops < *o) {
+                        best = Some((ops, b, v, g));
+                    }
+                }
+                let (_, b, v, g) = best.expect("two candidates were emitted");
+                body.text.push_str(&b.text);
+                body.next = b.next;
+                (v, g)
             }
             (Form::Power(_), PieceForm::Power | PieceForm::Bb | PieceForm::Ridge) if !naive => {
                 let vars: Vec<String> = (0..sh.s).map(|i| format!("{u}.{}", AXES[i])).collect();

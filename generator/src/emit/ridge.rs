@@ -103,10 +103,11 @@ fn times(coef: &str, prod: Option<String>) -> String {
     }
 }
 
-/// Emits s(u) = sum_g coeffs[g] * prod_g(u) for the ridge form, with
-/// `coeffs[g]` the name of group g's sample combination and `vars` the
-/// coordinates of u. Returns (value, gradient components), "0.0" for zeros;
-/// the gradient is empty unless `grad`.
+/// Emits s(u) = sum_g m_g(u) * prod_g(u) for the ridge form, with `coeffs`
+/// the names of the sample combinations of [`RidgeForm::rows`] (in that
+/// order), m_g the group's multiplier (its constant row, plus its linear rows
+/// times the coordinates) and `vars` the coordinates of u. Returns (value,
+/// gradient components), "0.0" for zeros; the gradient is empty unless `grad`.
 pub(crate) fn emit_ridge(
     body: &mut Body,
     ridge: &RidgeForm,
@@ -122,20 +123,50 @@ pub(crate) fn emit_ridge(
         powers: HashMap::new(),
         products: HashMap::new(),
     };
-    let live: Vec<usize> = (0..ridge.groups.len()).filter(|&g| coeffs[g] != "0.0").collect();
+    // Per group: (multiplier name, linear coefficient names by coordinate).
+    let mut next = 0;
+    let mut mults: Vec<Option<(String, Vec<(usize, String)>)>> = Vec::new();
+    for g in &ridge.groups {
+        let mut constant: Option<String> = None;
+        let mut linear: Vec<(usize, String)> = Vec::new();
+        for (j, _) in g.rows() {
+            let name = coeffs[next].clone();
+            next += 1;
+            if name == "0.0" {
+                continue;
+            }
+            match j {
+                None => constant = Some(name),
+                Some(j) => linear.push((j, name)),
+            }
+        }
+        let m = if linear.is_empty() {
+            constant
+        } else {
+            let mut terms: Vec<String> = constant.into_iter().collect();
+            terms.extend(linear.iter().map(|(j, b)| format!("{b} * {}", vars[*j])));
+            Some(body.bind("m", &terms.join(" + ")))
+        };
+        mults.push(m.map(|m| (m, linear)));
+    }
+    assert_eq!(next, coeffs.len(), "one name per row of RidgeForm::rows");
+    let live: Vec<usize> = (0..ridge.groups.len()).filter(|&g| mults[g].is_some()).collect();
+    let mult = |g: usize| &mults[g].as_ref().expect("live groups have a multiplier").0;
     let terms: Vec<String> = live
         .iter()
         .map(|&g| {
             let p = e.product(body, &ridge.groups[g].factors);
-            times(&coeffs[g], p)
+            times(mult(g), p)
         })
         .collect();
     let value = sum_or_zero(&terms);
     if !grad {
         return (value, vec![]);
     }
-    // D_n: per normal, per power p, the terms b_g * L^(p-1) * others.
+    // D_n: per normal, per power p, the terms m_g * L^(p-1) * others.
     let mut per_normal: BTreeMap<IVec, BTreeMap<u32, Vec<String>>> = BTreeMap::new();
+    // The multipliers' own gradients: b_j * prod_g per coordinate j.
+    let mut direct: Vec<Vec<String>> = vec![Vec::new(); vars.len()];
     for &g in &live {
         let factors = &ridge.groups[g].factors;
         for (i, &(f, p)) in factors.iter().enumerate() {
@@ -147,7 +178,14 @@ pub(crate) fn emit_ridge(
             }
             let prod = e.product(body, &rest);
             let normal = ridge.affine[f].normal.clone();
-            per_normal.entry(normal).or_default().entry(p).or_default().push(times(&coeffs[g], prod));
+            per_normal.entry(normal).or_default().entry(p).or_default().push(times(mult(g), prod));
+        }
+        let linear = &mults[g].as_ref().expect("live").1;
+        if !linear.is_empty() {
+            let prod = e.product(body, factors);
+            for (j, b) in linear {
+                direct[*j].push(times(b, prod.clone()));
+            }
         }
     }
     let mut dn: Vec<(IVec, String)> = Vec::new();
@@ -168,7 +206,12 @@ pub(crate) fn emit_ridge(
     let g: Vec<String> = (0..vars.len())
         .map(|j| {
             let terms: Vec<(Q, String)> = dn.iter().map(|(n, d)| (Q::int(n[j]), d.clone())).collect();
-            linear_combination(&terms)
+            let lc = linear_combination(&terms);
+            match (lc.as_str(), direct[j].is_empty()) {
+                (_, true) => lc,
+                ("0.0", false) => direct[j].join(" + "),
+                _ => format!("{lc} + {}", direct[j].join(" + ")),
+            }
         })
         .collect();
     (value, g)
@@ -275,11 +318,12 @@ mod tests {
             let s = d.facts.dim;
             let vars: Vec<String> = (0..s).map(|i| format!("u{i}")).collect();
             for r in 0..d.references.len() {
-                let ridge = d.ridge(r);
+                let merged = d.ridge(r).merged();
+                for ridge in [d.ridge(r), &merged] {
                 let polys = &d.forms(r).polys;
                 let nst = polys.len();
                 let samples: Vec<String> = (0..nst).map(|k| format!("c{k}")).collect();
-                let weights: Vec<Vec<Q>> = ridge.groups.iter().map(|g| g.weights.clone()).collect();
+                let weights = ridge.rows();
                 let mut body = Body::new();
                 let coeffs = LinearMap::shared(&weights).emit(&mut body, &samples, "b");
                 let (v, g) = emit_ridge(&mut body, ridge, &coeffs, &vars, true);
@@ -318,6 +362,7 @@ mod tests {
                         assert!((got - w).abs() < 1e-6, "{name} piece {r} d/du{j}: {got} vs {w}");
                     }
                 }
+                }
             }
         }
     }
@@ -326,5 +371,38 @@ mod tests {
     fn the_expression_evaluator_reads_what_the_writer_writes() {
         let env: HashMap<String, f64> = [("a".to_string(), 2.0), ("b".to_string(), 3.0)].into_iter().collect();
         assert_eq!(expr("-a + 0.5 * (b - a) * 4.0 - 1e-1", &env), -2.0 + 2.0 - 0.1);
+    }
+}
+
+#[cfg(test)]
+mod scratch_counts {
+    #[test]
+    #[ignore]
+    fn print_counts() {
+        use crate::derive::Derivation;
+        use crate::emit::{emit, EmitOptions};
+        for name in ["bcc7", "bcc8", "fcc6", "bcc_linear", "courant", "zp", "cc_tricubic", "cc_trilinear", "cc_triquadratic"] {
+            let d = Derivation::new(&crate::spec::catalog::get(name).unwrap()).unwrap();
+            let e = emit(&d, &EmitOptions::default()).unwrap();
+            let groups: Vec<usize> = (0..d.references.len()).map(|r| d.ridge(r).groups.len()).collect();
+            let aff: Vec<usize> = (0..d.references.len()).map(|r| d.ridge(r).affine.len()).collect();
+            println!("{name}: chosen {:?}; groups {groups:?} affine {aff:?}", e.stats.form);
+            for f in &e.stats.forms {
+                println!("   {:?} {} / {}", f.form, f.ops_eval, f.ops_eval_grad);
+            }
+        }
+    }
+}
+#[cfg(test)]
+mod scratch_dump {
+    #[test]
+    #[ignore]
+    fn dump() {
+        use crate::derive::Derivation;
+        use crate::emit::{emit, EmitOptions, EvalForm};
+        let d = Derivation::new(&crate::spec::catalog::get("bcc7").unwrap()).unwrap();
+        let e = emit(&d, &EmitOptions { form: Some(EvalForm::Ridge), ..Default::default() }).unwrap();
+        std::fs::write("/tmp/bcc7_ridge.wgsl", &e.source).unwrap();
+        for g in &d.ridge(0).groups { println!("{:?} nnz {}", g.factors.iter().map(|(f,p)| (d.ridge(0).affine[*f].normal.clone(), d.ridge(0).affine[*f].offset.to_f64(), *p)).collect::<Vec<_>>(), g.weights.iter().filter(|w| !w.is_zero()).count()); }
     }
 }
