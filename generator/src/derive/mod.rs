@@ -253,8 +253,7 @@ impl Derivation {
         r.ridge.get_or_init(|| {
             let c = &self.arrangement.cells[r.cell];
             let origin = self.cube_origin(&r.corner);
-            let stencil: Vec<IVec> =
-                r.stencil.iter().map(|k| crate::math::linalg::add_i(&r.corner, k)).collect();
+            let stencil: Vec<IVec> = r.stencil.iter().map(|k| crate::math::linalg::add_i(&r.corner, k)).collect();
             RidgeForm::new(&self.pp, &origin, &c.interior, &stencil)
         })
     }

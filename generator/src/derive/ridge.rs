@@ -3,7 +3,7 @@
 //! of powers of knot-plane linear forms, t_v = inv_v . y. Kept unexpanded and
 //! summed over the stencil, a piece is
 //!
-//! s(u) = sum_g (sum_k W_g[k] c_k) * prod_{(f, p) in g} L_f(u)^p,
+//! `s(u) = sum_g (sum_k W_g[k] c_k) * prod_{(f, p) in g} L_f(u)^p`,
 //!
 //! with L_f(u) = n_f . u + b_f affine forms of primitive integer normals
 //! (first non-zero entry positive) and W_g exact weights of the stencil
@@ -27,7 +27,7 @@ pub struct Affine {
 
 /// One product of powers of affine forms H(u) times a multiplier that is a
 /// combination of the samples, constant (`linear` empty) or affine in u:
-/// H(u) * (weights . c + sum_j (linear[j] . c) u_j).
+/// `H(u) * (weights . c + sum_j (linear[j] . c) u_j)`.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct RidgeGroup {
     /// (index into [`RidgeForm::affine`], power >= 1), sorted by index,
@@ -59,6 +59,9 @@ pub struct RidgeForm {
     /// The distinct products, in a deterministic order (sorted by factors).
     pub groups: Vec<RidgeGroup>,
 }
+
+/// A product's factors: (affine form index, power), sorted.
+type Factors = Vec<(usize, u32)>;
 
 /// (n, lambda) with a = lambda n, n primitive integer, first non-zero entry positive.
 fn normalise(a: &[Q]) -> (IVec, Q) {
@@ -162,7 +165,7 @@ impl RidgeForm {
             }
         };
         // Candidate H for each group: its factors without one power-1 factor.
-        let mut by_h: BTreeMap<Vec<(usize, u32)>, Vec<(usize, usize)>> = BTreeMap::new();
+        let mut by_h: BTreeMap<Factors, Vec<(usize, usize)>> = BTreeMap::new();
         for (g, grp) in self.groups.iter().enumerate() {
             for (i, &(f, p)) in grp.factors.iter().enumerate() {
                 if p == 1 {
@@ -172,7 +175,7 @@ impl RidgeForm {
                 }
             }
         }
-        let mut out: BTreeMap<Vec<(usize, u32)>, (Vec<Q>, Vec<Vec<Q>>)> = BTreeMap::new();
+        let mut out: BTreeMap<Factors, (Vec<Q>, Vec<Vec<Q>>)> = BTreeMap::new();
         let mut assigned = vec![false; self.groups.len()];
         loop {
             let best = by_h
@@ -215,12 +218,12 @@ impl RidgeForm {
         }
         // Move the part along a factor's normal into the group H L_f.
         let nnz = |rows: &[&Vec<Q>]| rows.iter().map(|r| r.iter().filter(|x| !x.is_zero()).count()).sum::<usize>();
-        let keys: Vec<Vec<(usize, u32)>> = out.keys().cloned().collect();
+        let keys: Vec<Factors> = out.keys().cloned().collect();
         for h in keys {
             if out[&h].1.is_empty() {
                 continue;
             }
-            let mut best: Option<(usize, usize, Vec<(usize, u32)>, usize)> = None;
+            let mut best: Option<(usize, usize, Factors, usize)> = None;
             for (i, &(f, p)) in h.iter().enumerate() {
                 let mut target = h.clone();
                 target[i].1 = p + 1;
@@ -300,7 +303,7 @@ impl RidgeForm {
     }
 
     /// Expands the form into one polynomial per stencil sample (exact):
-    /// sum_g (W_g[k] + sum_j linear_g[j][k] u_j) prod_g. `dim` is the number of variables (the form of a
+    /// `sum_g (W_g[k] + sum_j linear_g[j][k] u_j) prod_g`. `dim` is the number of variables (the form of a
     /// zero piece has no affine forms to read it from).
     pub fn expand(&self, dim: usize, degree: usize) -> Vec<Poly> {
         let nst = self.groups.first().map(|g| g.weights.len()).unwrap_or(0);

@@ -455,9 +455,10 @@ fn choose_form(
     if requested == EvalForm::Factored && fac.is_none() {
         return Err(Error::Spec {
             origin: format!("filter {name}"),
-            message: "form = \"factored\" needs every direction along a coordinate axis, one length per axis, \
+            message:
+                "form = \"factored\" needs every direction along a coordinate axis, one length per axis, \
                       and that length's axis vector in the lattice; use form = \"auto\", \"power\", \"ridge\" or \"bb\""
-                .into(),
+                    .into(),
         });
     }
     let mut bodies: Vec<(EvalForm, usize, String, String)> = Vec::new();

@@ -6,7 +6,7 @@
 //! n of p * b_g * L^(p-1) * (the other factors). Scalar straight-line code,
 //! so the static op count is what the GPU executes.
 
-use super::writer::{lit, linear_combination, sum_or_zero, Body};
+use super::writer::{linear_combination, lit, sum_or_zero, Body};
 use crate::derive::ridge::RidgeForm;
 use crate::math::exact::Q;
 use crate::math::linalg::IVec;
@@ -64,7 +64,7 @@ impl Emitter<'_> {
         if let Some(x) = self.powers.get(&(f, p)) {
             return x.clone();
         }
-        let x = if p % 2 == 0 {
+        let x = if p.is_multiple_of(2) {
             let h = self.power(body, f, p / 2);
             body.bind("x", &format!("{h} * {h}"))
         } else {
@@ -125,7 +125,8 @@ pub(crate) fn emit_ridge(
     };
     // Per group: (multiplier name, linear coefficient names by coordinate).
     let mut next = 0;
-    let mut mults: Vec<Option<(String, Vec<(usize, String)>)>> = Vec::new();
+    type Multiplier = (String, Vec<(usize, String)>);
+    let mut mults: Vec<Option<Multiplier>> = Vec::new();
     for g in &ridge.groups {
         let mut constant: Option<String> = None;
         let mut linear: Vec<(usize, String)> = Vec::new();
@@ -320,48 +321,47 @@ mod tests {
             for r in 0..d.references.len() {
                 let merged = d.ridge(r).merged();
                 for ridge in [d.ridge(r), &merged] {
-                let polys = &d.forms(r).polys;
-                let nst = polys.len();
-                let samples: Vec<String> = (0..nst).map(|k| format!("c{k}")).collect();
-                let weights = ridge.rows();
-                let mut body = Body::new();
-                let coeffs = LinearMap::shared(&weights).emit(&mut body, &samples, "b");
-                let (v, g) = emit_ridge(&mut body, ridge, &coeffs, &vars, true);
-                let vn = body.bind("v", &v);
-                let gn: Vec<String> = g.iter().map(|x| body.bind("g", x)).collect();
-                assert!(!body.text.contains("if") && !body.text.contains("for"), "straight-line code");
-                for trial in 0..3 {
-                    let mut env = HashMap::new();
-                    let cs: Vec<f64> = (0..nst).map(|k| ((k * 7 + trial * 3) % 11) as f64 / 5.0 - 1.0).collect();
-                    for k in 0..nst {
-                        env.insert(samples[k].clone(), cs[k]);
-                    }
-                    // A point of the reference cell: its interior, in local coordinates.
-                    let c = &d.arrangement.cells[d.references[r].cell];
-                    let origin = d.cube_origin(&d.references[r].corner);
-                    let uq: Vec<Q> = (0..s)
-                        .map(|i| &c.interior[i] - &origin[i] + Q::frac(trial as i64, 97))
-                        .collect();
-                    let u: Vec<f64> = uq.iter().map(|x| x.to_f64()).collect();
-                    for i in 0..s {
-                        env.insert(vars[i].clone(), u[i]);
-                    }
-                    run(&body.text, &mut env);
-                    let mut want = 0.0;
-                    let mut want_g = vec![0.0; s];
-                    for k in 0..nst {
-                        want += cs[k] * polys[k].eval(&uq).to_f64();
+                    let polys = &d.forms(r).polys;
+                    let nst = polys.len();
+                    let samples: Vec<String> = (0..nst).map(|k| format!("c{k}")).collect();
+                    let weights = ridge.rows();
+                    let mut body = Body::new();
+                    let coeffs = LinearMap::shared(&weights).emit(&mut body, &samples, "b");
+                    let (v, g) = emit_ridge(&mut body, ridge, &coeffs, &vars, true);
+                    let vn = body.bind("v", &v);
+                    let gn: Vec<String> = g.iter().map(|x| body.bind("g", x)).collect();
+                    assert!(!body.text.contains("if") && !body.text.contains("for"), "straight-line code");
+                    for trial in 0..3 {
+                        let mut env = HashMap::new();
+                        let cs: Vec<f64> = (0..nst).map(|k| ((k * 7 + trial * 3) % 11) as f64 / 5.0 - 1.0).collect();
+                        for k in 0..nst {
+                            env.insert(samples[k].clone(), cs[k]);
+                        }
+                        // A point of the reference cell: its interior, in local coordinates.
+                        let c = &d.arrangement.cells[d.references[r].cell];
+                        let origin = d.cube_origin(&d.references[r].corner);
+                        let uq: Vec<Q> =
+                            (0..s).map(|i| &c.interior[i] - &origin[i] + Q::frac(trial as i64, 97)).collect();
+                        let u: Vec<f64> = uq.iter().map(|x| x.to_f64()).collect();
+                        for i in 0..s {
+                            env.insert(vars[i].clone(), u[i]);
+                        }
+                        run(&body.text, &mut env);
+                        let mut want = 0.0;
+                        let mut want_g = vec![0.0; s];
+                        for k in 0..nst {
+                            want += cs[k] * polys[k].eval(&uq).to_f64();
+                            for j in 0..s {
+                                want_g[j] += cs[k] * polys[k].derivative(j).eval(&uq).to_f64();
+                            }
+                        }
+                        // The literals are f32 (as in the shader): about 1e-7 relative.
+                        assert!((env[&vn] - want).abs() < 1e-6, "{name} piece {r}: {} vs {want}", env[&vn]);
                         for j in 0..s {
-                            want_g[j] += cs[k] * polys[k].derivative(j).eval(&uq).to_f64();
+                            let (got, w) = (env[&gn[j]], want_g[j]);
+                            assert!((got - w).abs() < 1e-6, "{name} piece {r} d/du{j}: {got} vs {w}");
                         }
                     }
-                    // The literals are f32 (as in the shader): about 1e-7 relative.
-                    assert!((env[&vn] - want).abs() < 1e-6, "{name} piece {r}: {} vs {want}", env[&vn]);
-                    for j in 0..s {
-                        let (got, w) = (env[&gn[j]], want_g[j]);
-                        assert!((got - w).abs() < 1e-6, "{name} piece {r} d/du{j}: {got} vs {w}");
-                    }
-                }
                 }
             }
         }
@@ -371,38 +371,5 @@ mod tests {
     fn the_expression_evaluator_reads_what_the_writer_writes() {
         let env: HashMap<String, f64> = [("a".to_string(), 2.0), ("b".to_string(), 3.0)].into_iter().collect();
         assert_eq!(expr("-a + 0.5 * (b - a) * 4.0 - 1e-1", &env), -2.0 + 2.0 - 0.1);
-    }
-}
-
-#[cfg(test)]
-mod scratch_counts {
-    #[test]
-    #[ignore]
-    fn print_counts() {
-        use crate::derive::Derivation;
-        use crate::emit::{emit, EmitOptions};
-        for name in ["bcc7", "bcc8", "fcc6", "bcc_linear", "courant", "zp", "cc_tricubic", "cc_trilinear", "cc_triquadratic"] {
-            let d = Derivation::new(&crate::spec::catalog::get(name).unwrap()).unwrap();
-            let e = emit(&d, &EmitOptions::default()).unwrap();
-            let groups: Vec<usize> = (0..d.references.len()).map(|r| d.ridge(r).groups.len()).collect();
-            let aff: Vec<usize> = (0..d.references.len()).map(|r| d.ridge(r).affine.len()).collect();
-            println!("{name}: chosen {:?}; groups {groups:?} affine {aff:?}", e.stats.form);
-            for f in &e.stats.forms {
-                println!("   {:?} {} / {}", f.form, f.ops_eval, f.ops_eval_grad);
-            }
-        }
-    }
-}
-#[cfg(test)]
-mod scratch_dump {
-    #[test]
-    #[ignore]
-    fn dump() {
-        use crate::derive::Derivation;
-        use crate::emit::{emit, EmitOptions, EvalForm};
-        let d = Derivation::new(&crate::spec::catalog::get("bcc7").unwrap()).unwrap();
-        let e = emit(&d, &EmitOptions { form: Some(EvalForm::Ridge), ..Default::default() }).unwrap();
-        std::fs::write("/tmp/bcc7_ridge.wgsl", &e.source).unwrap();
-        for g in &d.ridge(0).groups { println!("{:?} nnz {}", g.factors.iter().map(|(f,p)| (d.ridge(0).affine[*f].normal.clone(), d.ridge(0).affine[*f].offset.to_f64(), *p)).collect::<Vec<_>>(), g.weights.iter().filter(|w| !w.is_zero()).count()); }
     }
 }
