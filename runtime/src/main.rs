@@ -75,7 +75,7 @@ enum Command {
         #[arg(long, value_parser = ["fast", "naive"])]
         variant: Option<String>,
         /// Evaluation form for every filter (default: each spec's `form`, `auto`).
-        #[arg(long, value_parser = ["auto", "factored", "power", "bb", "dense"])]
+        #[arg(long, value_parser = ["auto", "factored", "power", "ridge", "bb", "dense"])]
         form: Option<String>,
         /// Fetches in eval: exact loads, or hardware linear filtering (pairs
         /// of adjacent samples per fetch; fast variant only; packed layout for
@@ -108,7 +108,7 @@ enum Command {
         #[arg(long, value_parser = ["fast", "naive"], default_value = "fast")]
         variant: String,
         /// Evaluation form (default: the filter's own, `auto`: the cheapest).
-        #[arg(long, value_parser = ["auto", "factored", "power", "bb", "dense"])]
+        #[arg(long, value_parser = ["auto", "factored", "power", "ridge", "bb", "dense"])]
         form: Option<String>,
         /// Fetch bounds: clamp to the volume, or unchecked (caller pads).
         #[arg(long, value_parser = ["clamp", "unchecked"], default_value = "clamp")]

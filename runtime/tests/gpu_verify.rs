@@ -75,8 +75,8 @@ fn every_evaluation_form_matches_the_exact_evaluator_on_the_device() {
     let gpu = gpu();
     let mut failures = Vec::new();
     let cases: [(&str, &[EvalForm]); 4] = [
-        ("bcc7", &[EvalForm::Power, EvalForm::Bb, EvalForm::Dense]),
-        ("fcc6", &[EvalForm::Power, EvalForm::Bb]),
+        ("bcc7", &[EvalForm::Power, EvalForm::Ridge, EvalForm::Bb, EvalForm::Dense]),
+        ("fcc6", &[EvalForm::Power, EvalForm::Ridge, EvalForm::Bb]),
         ("cc_tricubic", &[EvalForm::Factored, EvalForm::Power]),
         ("bcc12", &[EvalForm::Factored]),
     ];

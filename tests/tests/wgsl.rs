@@ -87,13 +87,24 @@ fn a_user_tensor_cubic_over_bcc_is_factored_and_small() {
 fn forms_can_be_forced_and_factored_is_refused_where_it_does_not_apply() {
     use boxforge::emit::EvalForm;
     let d = boxforge_tests::derive("bcc7");
-    for form in [EvalForm::Power, EvalForm::Bb, EvalForm::Dense] {
+    for form in [EvalForm::Power, EvalForm::Ridge, EvalForm::Bb, EvalForm::Dense] {
         let e = emit(&d, &EmitOptions { form: Some(form), ..EmitOptions::default() }).unwrap();
         assert_eq!(e.stats.form, form);
         let r = validate_wgsl(&e.source, &e.file_name);
+        assert!(r.valid, "{form:?}: {}", r.error.clone().unwrap_or_default());
         check_branch_free(&r, &["bcc7_eval", "bcc7_eval_grad"]).unwrap();
     }
+    // The ridge form on other lattices and dimensions: valid and branch-free.
+    for name in ["fcc6", "bcc8", "courant", "zp", "bcc_linear"] {
+        let d = boxforge_tests::derive(name);
+        let e = emit(&d, &EmitOptions { form: Some(EvalForm::Ridge), ..EmitOptions::default() }).unwrap();
+        assert_eq!(e.stats.form, EvalForm::Ridge);
+        let r = validate_wgsl(&e.source, &e.file_name);
+        assert!(r.valid, "{name} ridge: {}", r.error.clone().unwrap_or_default());
+        check_branch_free(&r, &[&format!("{name}_eval"), &format!("{name}_eval_grad")]).unwrap();
+    }
     let auto = emit(&d, &EmitOptions::default()).unwrap().stats;
+    assert!(auto.forms.iter().any(|f| f.form == EvalForm::Ridge), "auto compares the ridge form");
     // Auto is the cheapest of the forms it reports.
     assert!(auto.forms.iter().all(|f| f.cost() >= auto.ops_eval + auto.ops_eval_grad));
     let err = emit(&d, &EmitOptions { form: Some(EvalForm::Factored), ..EmitOptions::default() }).unwrap_err();

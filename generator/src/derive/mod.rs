@@ -10,6 +10,7 @@ pub mod factor;
 pub mod piece_tables;
 pub mod pieces;
 pub mod prefilter;
+pub mod ridge;
 pub mod spline;
 pub mod stencil;
 pub mod symmetry;
@@ -18,6 +19,7 @@ use crate::derive::arrangement::{Arrangement, Frame};
 use crate::derive::bb::BbForm;
 use crate::derive::pieces::PpForm;
 use crate::derive::prefilter::{derive_prefilter, Prefilter};
+use crate::derive::ridge::RidgeForm;
 use crate::derive::spline::SplineFacts;
 use crate::derive::symmetry::{point_group, SignedPerm};
 use crate::error::{Error, Result};
@@ -92,6 +94,8 @@ pub struct ReferencePiece {
     /// Polynomial and BB forms, derived on first use: a filter with tens of
     /// thousands of cells can be located and inspected without deriving all.
     forms: OnceLock<Forms>,
+    /// The linear-form (ridge) form, derived on first use.
+    ridge: OnceLock<RidgeForm>,
 }
 
 /// The exact forms of one reference piece.
@@ -241,6 +245,19 @@ impl Derivation {
         })
     }
 
+    /// The linear-form (ridge) form of reference piece `ri`, derived once:
+    /// the same polynomials as [`Derivation::forms`], kept as sums of
+    /// products of powers of knot-plane linear forms.
+    pub fn ridge(&self, ri: usize) -> &RidgeForm {
+        let r = &self.references[ri];
+        r.ridge.get_or_init(|| {
+            let c = &self.arrangement.cells[r.cell];
+            let origin = self.cube_origin(&r.corner);
+            let stencil: Vec<IVec> = r.stencil.iter().map(|k| crate::math::linalg::add_i(&r.corner, k)).collect();
+            RidgeForm::new(&self.pp, &origin, &c.interior, &stencil)
+        })
+    }
+
     /// o + z: the lower corner of the grid cube with integer corner z.
     pub fn cube_origin(&self, z: &[i64]) -> QVec {
         (0..z.len()).map(|i| &self.arrangement.grid_offset[i] + &Q::int(z[i])).collect()
@@ -274,6 +291,7 @@ fn reference_piece(arr: &Arrangement, facts: &SplineFacts, lattice: &Lattice, ce
         vertices: c.polytope.vertices.clone(),
         is_simplex: c.polytope.is_simplex(),
         forms: OnceLock::new(),
+        ridge: OnceLock::new(),
     }
 }
 

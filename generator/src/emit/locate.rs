@@ -13,6 +13,9 @@ pub enum PieceForm {
     /// BB coefficients with shared subexpressions, de Casteljau (power form
     /// with Horner on non-simplicial pieces).
     Bb,
+    /// Linear-form (ridge) form: sums of products of powers of knot-plane
+    /// linear forms, weights with shared subexpressions.
+    Ridge,
 }
 
 use super::{forms::*, naive::*, writer::*};
@@ -276,7 +279,12 @@ pub(crate) fn emit_eval_body(
             (Some(bb), PieceForm::Dense | PieceForm::Bb) => Form::Bb(bb),
             _ => Form::Power(&forms.polys),
         };
-        let (indices, weights) = form_weights(&form);
+        let ridge = (piece == PieceForm::Ridge && !naive).then(|| d.ridge(r));
+        // The ridge form writes its sample combinations with its evaluation (below).
+        let (indices, weights) = match ridge {
+            Some(_) => (vec![], vec![]),
+            None => form_weights(&form),
+        };
         // samples per stencil index, via the slot mapping.
         let nst = d.references[r].stencil.len();
         let mut per_k = vec![String::from("0.0"); nst];
@@ -311,7 +319,29 @@ pub(crate) fn emit_eval_body(
             acc
         };
         let (v, g) = match (&form, piece) {
-            (Form::Power(_), PieceForm::Power | PieceForm::Bb) if !naive => {
+            _ if ridge.is_some() => {
+                let rf = ridge.expect("checked by the guard");
+                let vars: Vec<String> = (0..sh.s).map(|i| format!("{u}.{}", AXES[i])).collect();
+                // The plain grouping and the merged one (H * affine multipliers):
+                // keep the piece's cheaper code.
+                let mut best: Option<(usize, Body, String, Option<String>)> = None;
+                for form in [rf.clone(), rf.merged()] {
+                    let mut b = Body { text: String::new(), next: body.next, indent: body.indent };
+                    let coeffs = crate::emit::cse::LinearMap::shared(&form.rows()).emit(&mut b, &per_k, "b");
+                    let (v, g) = crate::emit::ridge::emit_ridge(&mut b, &form, &coeffs, &vars, grad);
+                    let v = b.bind("v", &v);
+                    let g = grad.then(|| b.bind("g", &sh.fvec(&g)));
+                    let ops = count_ops(&b.text);
+                    if best.as_ref().is_none_or(|(o, ..)| ops < *o) {
+                        best = Some((ops, b, v, g));
+                    }
+                }
+                let (_, b, v, g) = best.expect("two candidates were emitted");
+                body.text.push_str(&b.text);
+                body.next = b.next;
+                (v, g)
+            }
+            (Form::Power(_), PieceForm::Power | PieceForm::Bb | PieceForm::Ridge) if !naive => {
                 let vars: Vec<String> = (0..sh.s).map(|i| format!("{u}.{}", AXES[i])).collect();
                 let monomials: Vec<(Vec<u32>, String)> = indices.iter().cloned().zip(coeffs.iter().cloned()).collect();
                 let (v, g) = crate::emit::horner::emit_horner(&mut body, &monomials, &vars, grad);

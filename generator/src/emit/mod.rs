@@ -19,6 +19,7 @@ pub mod linear;
 pub mod locate;
 pub mod naive;
 pub mod plan;
+pub mod ridge;
 pub mod writer;
 
 use bounds::cube_bounds_fn;
@@ -476,7 +477,7 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
 
 /// Emits every available form, and picks the requested one or (auto) the
 /// cheapest by [`FormCost::cost`]; ties go to the earlier of factored,
-/// power, bb, dense. Returns (form, every form's cost, eval body, grad body).
+/// power, ridge, bb, dense. Returns (form, every form's cost, eval body, grad body).
 fn choose_form(
     d: &Derivation,
     fac: Option<&Factorisation>,
@@ -488,9 +489,10 @@ fn choose_form(
     if requested == EvalForm::Factored && fac.is_none() {
         return Err(Error::Spec {
             origin: format!("filter {name}"),
-            message: "form = \"factored\" needs every direction along a coordinate axis, one length per axis, \
-                      and that length's axis vector in the lattice; use form = \"auto\", \"power\" or \"bb\""
-                .into(),
+            message:
+                "form = \"factored\" needs every direction along a coordinate axis, one length per axis, \
+                      and that length's axis vector in the lattice; use form = \"auto\", \"power\", \"ridge\" or \"bb\""
+                    .into(),
         });
     }
     let mut bodies: Vec<(EvalForm, usize, String, String)> = Vec::new();
@@ -505,9 +507,12 @@ fn choose_form(
     // The tensor forms of large filters are far cheaper than the plan-based
     // ones; skip deriving those (CSE over 128 x 220 weights) unless asked.
     let skip_plan_forms = requested == EvalForm::Auto && fac.is_some() && plan.fetches() > 64;
-    for (f, piece) in
-        [(EvalForm::Power, PieceForm::Power), (EvalForm::Bb, PieceForm::Bb), (EvalForm::Dense, PieceForm::Dense)]
-    {
+    for (f, piece) in [
+        (EvalForm::Power, PieceForm::Power),
+        (EvalForm::Ridge, PieceForm::Ridge),
+        (EvalForm::Bb, PieceForm::Bb),
+        (EvalForm::Dense, PieceForm::Dense),
+    ] {
         if wanted(f) && !skip_plan_forms {
             let e = emit_eval_body(d, plan, sh, name, false, false, piece);
             let g = emit_eval_body(d, plan, sh, name, true, false, piece);

@@ -60,6 +60,9 @@ pub enum EvalForm {
     Factored,
     /// Monomial coefficients with shared subexpressions, nested Horner.
     Power,
+    /// Linear-form (ridge) form: each piece as a sum of products of powers
+    /// of knot-plane linear forms, the shape of Kim & Lee's published bcc7 formula.
+    Ridge,
     /// BB coefficients with shared subexpressions, de Casteljau.
     Bb,
     /// BB coefficients as dense sums of every sample (the first milestone's form).
@@ -68,7 +71,8 @@ pub enum EvalForm {
 
 impl EvalForm {
     /// Every form, `auto` first.
-    pub const ALL: [EvalForm; 5] = [EvalForm::Auto, EvalForm::Factored, EvalForm::Power, EvalForm::Bb, EvalForm::Dense];
+    pub const ALL: [EvalForm; 6] =
+        [EvalForm::Auto, EvalForm::Factored, EvalForm::Power, EvalForm::Ridge, EvalForm::Bb, EvalForm::Dense];
 
     /// The name used in specs and on the command line.
     pub fn name(self) -> &'static str {
@@ -76,12 +80,13 @@ impl EvalForm {
             EvalForm::Auto => "auto",
             EvalForm::Factored => "factored",
             EvalForm::Power => "power",
+            EvalForm::Ridge => "ridge",
             EvalForm::Bb => "bb",
             EvalForm::Dense => "dense",
         }
     }
 
-    /// Parses a form name (`auto`, `factored`, `power`, `bb`, `dense`).
+    /// Parses a form name (`auto`, `factored`, `power`, `ridge`, `bb`, `dense`).
     pub fn parse(s: &str) -> Option<EvalForm> {
         EvalForm::ALL.into_iter().find(|f| f.name() == s)
     }
