@@ -4,6 +4,7 @@
 
 pub mod bench;
 pub mod gpu;
+pub mod pictures;
 pub mod prefilter;
 pub mod progress;
 pub mod render;
