@@ -161,6 +161,9 @@ enum Command {
         /// Ray step in cells.
         #[arg(long, default_value_t = 0.25, allow_negative_numbers = true)]
         step: f32,
+        /// First hit: exact (piece by piece, Bernstein root isolation) or fixed steps of --step.
+        #[arg(long, value_parser = ["exact", "step"], default_value = "exact")]
+        hit: String,
         #[arg(long, value_parser = ["embedded", "packed"], default_value = "embedded")]
         layout: String,
         #[arg(long)]
@@ -295,6 +298,7 @@ fn run(cli: Cli) -> Result<(), Failure> {
             perspective,
             no_skip,
             step,
+            hit,
             layout,
             adapter,
             out,
@@ -334,6 +338,7 @@ fn run(cli: Cli) -> Result<(), Failure> {
                 perspective,
                 skip: !no_skip,
                 step,
+                hit: render::HitMode::parse(&hit).expect("clap checked"),
                 progress: true,
                 frames: 1,
                 ..RenderOptions::default()

@@ -29,6 +29,41 @@ pub struct RenderOptions {
     pub frames: usize,
     /// Render in bands of rows and report progress on stderr (for long renders).
     pub progress: bool,
+    /// How a ray finds the surface: exactly, piece by piece, or by fixed steps.
+    pub hit: HitMode,
+}
+
+/// How the ray caster finds the first iso-surface crossing along a ray.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum HitMode {
+    /// Piece by piece: the ray is cut at every grid and knot plane, the
+    /// spline on each segment is one polynomial of the filter's degree whose
+    /// Bernstein coefficients (from degree + 1 samples) exclude the segment
+    /// or lead to its first root by Bernstein subdivision. Finds thin
+    /// features that fixed steps jump over.
+    #[default]
+    Exact,
+    /// Fixed steps of `step` cells with a sign test, then bisection.
+    Step,
+}
+
+impl HitMode {
+    /// `exact` or `step`.
+    pub fn parse(s: &str) -> Option<HitMode> {
+        match s {
+            "exact" => Some(HitMode::Exact),
+            "step" => Some(HitMode::Step),
+            _ => None,
+        }
+    }
+
+    /// The name `parse` accepts.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            HitMode::Exact => "exact",
+            HitMode::Step => "step",
+        }
+    }
 }
 
 impl Default for RenderOptions {
@@ -45,6 +80,7 @@ impl Default for RenderOptions {
             block: 4,
             frames: 3,
             progress: false,
+            hit: HitMode::default(),
         }
     }
 }
@@ -139,13 +175,304 @@ pub fn ray_params(d: &Derivation, vol: &LatticeVolume, o: &RenderOptions) -> Ray
     }
 }
 
-fn template(name: &str) -> String {
+/// Segments shorter than this (in cells) merge into the next one: planes
+/// that cross the ray this close together are one cut (both walks).
+pub const HIT_MERGE: f64 = 1e-5;
+/// Deepest Bernstein subdivision level of the first-root search.
+pub const HIT_DEPTH: i32 = 10;
+/// Subdivision steps of the first-root search before it gives up (a miss).
+pub const HIT_ITERATIONS: usize = 64;
+/// Root tolerance in cells (as the fixed-step bisection).
+pub const HIT_TOLERANCE: f64 = 1e-4;
+
+/// What the exact first-hit walk needs from a filter: the planes that cut a
+/// ray into polynomial pieces, and the conversion from samples on a segment
+/// to the Bernstein coefficients of that piece.
+#[derive(Clone, Debug)]
+pub struct HitPlan {
+    /// Plane families n . x in offset + period Z: the grid planes x_i in o_i + Z
+    /// and every knot-plane family that is not an axis (axis knot planes are
+    /// grid planes). Between two consecutive crossings the ray stays in one cell.
+    pub families: Vec<([f64; 3], f64, f64)>,
+    /// The grid offset o (cubes are o + z + [0,1]^3).
+    pub grid_offset: [f64; 3],
+    /// The filter's degree: the degree of the spline on every segment.
+    pub degree: usize,
+    /// Nodes in [0,1] where a segment is sampled. With `shared_ends` they are
+    /// the Chebyshev extrema (0 and 1 included, the end of one segment is
+    /// the start of the next); otherwise Chebyshev roots inside (0,1), for
+    /// discontinuous splines whose value on a knot plane is ambiguous.
+    pub nodes: Vec<f64>,
+    /// Whether the nodes include both ends.
+    pub shared_ends: bool,
+    /// `to_bernstein[j][i]`: weight of the sample at node i in Bernstein
+    /// coefficient j (the inverse of the matrix B_j^n(node_i)).
+    pub to_bernstein: Vec<Vec<f64>>,
+}
+
+impl HitPlan {
+    /// The plan of a 3D filter.
+    pub fn new(d: &Derivation) -> HitPlan {
+        let arr = &d.arrangement;
+        let grid_offset = [0, 1, 2].map(|i| arr.grid_offset[i].to_f64());
+        let mut families: Vec<([f64; 3], f64, f64)> = (0..3)
+            .map(|i| {
+                let mut n = [0.0; 3];
+                n[i] = 1.0;
+                (n, grid_offset[i], 1.0)
+            })
+            .collect();
+        for f in &arr.families {
+            if f.normal.iter().filter(|&&c| c != 0).count() > 1 {
+                families.push(([0, 1, 2].map(|i| f.normal[i] as f64), f.offset.to_f64(), f.period as f64));
+            }
+        }
+        let n = d.facts.degree;
+        let shared_ends = d.facts.continuity >= 0 && n > 0;
+        let pi = std::f64::consts::PI;
+        let nodes: Vec<f64> = (0..=n)
+            .map(|i| {
+                if shared_ends {
+                    // Exactly 0 and 1 at the ends.
+                    if i == 0 {
+                        0.0
+                    } else if i == n {
+                        1.0
+                    } else {
+                        0.5 * (1.0 - (pi * i as f64 / n as f64).cos())
+                    }
+                } else {
+                    0.5 * (1.0 - (pi * (2 * i + 1) as f64 / (2 * n + 2) as f64).cos())
+                }
+            })
+            .collect();
+        let m: Vec<Vec<f64>> = nodes.iter().map(|&x| (0..=n).map(|j| bernstein(n, j, x)).collect()).collect();
+        HitPlan { families, grid_offset, degree: n, nodes, shared_ends, to_bernstein: invert(&m) }
+    }
+
+    /// Bernstein coefficients on [0,1] from the samples at the nodes.
+    pub fn coefficients(&self, values: &[f64]) -> Vec<f64> {
+        self.to_bernstein.iter().map(|row| row.iter().zip(values).map(|(w, v)| w * v).sum()).collect()
+    }
+}
+
+/// The Bernstein basis polynomial B_j^n(x).
+fn bernstein(n: usize, j: usize, x: f64) -> f64 {
+    let mut binom = 1.0;
+    for k in 0..j {
+        binom = binom * (n - k) as f64 / (k + 1) as f64;
+    }
+    binom * x.powi(j as i32) * (1.0 - x).powi((n - j) as i32)
+}
+
+/// The inverse of a small well-conditioned matrix (Gauss-Jordan, partial pivoting).
+fn invert(m: &[Vec<f64>]) -> Vec<Vec<f64>> {
+    let n = m.len();
+    let mut a: Vec<Vec<f64>> = m
+        .iter()
+        .enumerate()
+        .map(|(i, row)| {
+            let mut r = row.clone();
+            r.extend((0..n).map(|j| (i == j) as i32 as f64));
+            r
+        })
+        .collect();
+    for col in 0..n {
+        let piv = (col..n).max_by(|&x, &y| a[x][col].abs().total_cmp(&a[y][col].abs())).expect("rows");
+        a.swap(col, piv);
+        let p = a[col][col];
+        for v in a[col].iter_mut() {
+            *v /= p;
+        }
+        for r in 0..n {
+            if r != col {
+                let f = a[r][col];
+                if f != 0.0 {
+                    for c in 0..2 * n {
+                        a[r][c] -= f * a[col][c];
+                    }
+                }
+            }
+        }
+    }
+    a.into_iter().map(|r| r[n..].to_vec()).collect()
+}
+
+/// The polynomial with Bernstein coefficients `c` on [0,1] at u (de Casteljau).
+pub fn bernstein_at(c: &[f64], u: f64) -> f64 {
+    let mut b = c.to_vec();
+    for r in 1..b.len() {
+        for j in 0..b.len() - r {
+            b[j] = (1.0 - u) * b[j] + u * b[j + 1];
+        }
+    }
+    b[0]
+}
+
+/// The Bernstein coefficients of the same polynomial on [u0, u1] (0 < u1).
+pub fn bernstein_restrict(c: &[f64], u0: f64, u1: f64) -> Vec<f64> {
+    let n = c.len() - 1;
+    let mut b = c.to_vec();
+    let mut left = vec![0.0; n + 1];
+    left[0] = b[0];
+    for r in 1..=n {
+        for j in 0..=n - r {
+            b[j] = (1.0 - u1) * b[j] + u1 * b[j + 1];
+        }
+        left[r] = b[0];
+    }
+    let s = u0 / u1;
+    let mut out = vec![0.0; n + 1];
+    out[n] = left[n];
+    for r in 1..=n {
+        for j in 0..=n - r {
+            left[j] = (1.0 - s) * left[j] + s * left[j + 1];
+        }
+        out[n - r] = left[n - r];
+    }
+    out
+}
+
+/// Sign changes (negative vs not) along the coefficients.
+fn variations(c: &[f64]) -> usize {
+    c.windows(2).filter(|w| (w[0] < 0.0) != (w[1] < 0.0)).count()
+}
+
+/// The first root in [0,1] of the polynomial with Bernstein coefficients
+/// `c` (of f - iso), to `tol` in u: depth-first, left-first over dyadic
+/// intervals, an interval is dropped when its coefficients have one sign,
+/// accepted when they change sign once (exactly one root), split otherwise
+/// down to [`HIT_DEPTH`]; the root is then bisected on the polynomial. The
+/// shader's `_first_root` is the same algorithm in f32.
+pub fn first_root(c: &[f64], tol: f64) -> Option<f64> {
+    let n = c.len() - 1;
+    let (mut l, mut k) = (0i32, 0i64);
+    for _ in 0..HIT_ITERATIONS {
+        let w = 1.0 / (1i64 << l) as f64;
+        let u0 = k as f64 * w;
+        let s = if l == 0 { c.to_vec() } else { bernstein_restrict(c, u0, (k + 1) as f64 * w) };
+        let v = variations(&s);
+        let mut done = v == 0;
+        if v == 1 || (v > 0 && l == HIT_DEPTH) {
+            if (s[0] < 0.0) != (s[n] < 0.0) {
+                let (mut a, mut b) = (0.0, 1.0);
+                let sa = s[0] < 0.0;
+                for _ in 0..40 {
+                    if (b - a) * w <= tol {
+                        break;
+                    }
+                    let m = 0.5 * (a + b);
+                    if (bernstein_at(&s, m) < 0.0) == sa {
+                        a = m;
+                    } else {
+                        b = m;
+                    }
+                }
+                return Some(u0 + w * 0.5 * (a + b));
+            }
+            done = true;
+        }
+        if !done {
+            l += 1;
+            k *= 2;
+            continue;
+        }
+        loop {
+            if l == 0 {
+                return None;
+            }
+            if k & 1 == 0 {
+                k += 1;
+                break;
+            }
+            k >>= 1;
+            l -= 1;
+        }
+    }
+    None
+}
+
+/// The next t > `t` where a ray with a = n . origin - offset and b = n . dir
+/// crosses a plane of a family with this period (infinite when parallel).
+fn next_crossing(a: f64, b: f64, period: f64, t: f64) -> f64 {
+    if b.abs() <= 1e-9 {
+        return f64::INFINITY;
+    }
+    let q = (a + t * b) / period;
+    let k = if b > 0.0 { q.floor() + 1.0 } else { q.ceil() - 1.0 };
+    (k * period - a) / b
+}
+
+/// f32 literal for WGSL.
+fn lit(x: f64) -> String {
+    format!("{:?}", x as f32)
+}
+
+/// The minijinja context of the exact walk for this plan.
+fn hit_context(plan: &HitPlan) -> minijinja::Value {
+    let families: Vec<minijinja::Value> = plan
+        .families
+        .iter()
+        .map(|(n, off, g)| {
+            minijinja::context! {
+                n => format!("{}, {}, {}", lit(n[0]), lit(n[1]), lit(n[2])),
+                off => lit(*off),
+                g => lit(*g),
+            }
+        })
+        .collect();
+    let n = plan.degree;
+    // Coefficient j of f - iso as a sum over the node samples v_i.
+    let coefs: Vec<String> = plan
+        .to_bernstein
+        .iter()
+        .map(|row| {
+            let terms: Vec<String> = row
+                .iter()
+                .enumerate()
+                .filter(|(_, w)| w.abs() > 1e-12)
+                .map(|(i, &w)| if (w - 1.0).abs() < 1e-12 { format!("v{i}") } else { format!("{} * v{i}", lit(w)) })
+                .collect();
+            if terms.is_empty() {
+                "0.0".to_string()
+            } else {
+                terms.join(" + ")
+            }
+        })
+        .collect();
+    minijinja::context! {
+        families => families,
+        degree => n,
+        nodes => plan.nodes.iter().map(|&x| lit(x)).collect::<Vec<_>>(),
+        shared_ends => plan.shared_ends,
+        coefs => coefs,
+        grid_offset => format!("{}, {}, {}", lit(plan.grid_offset[0]), lit(plan.grid_offset[1]), lit(plan.grid_offset[2])),
+        merge => lit(HIT_MERGE),
+        depth => HIT_DEPTH,
+        iterations => HIT_ITERATIONS,
+        tolerance => lit(HIT_TOLERANCE),
+    }
+}
+
+/// The ray caster for this filter: the fixed-step walk, or with `exact`
+/// the exact walk over a fine bounds grid of `fine` = (edge, blocks per axis).
+fn template(name: &str, exact: Option<(&HitPlan, i32, [i32; 3])>) -> String {
     let env = {
         let mut env = minijinja::Environment::new();
         env.add_template("raycast", include_str!("../../templates/raycast.wgsl.j2")).expect("template");
         env
     };
-    env.get_template("raycast").unwrap().render(minijinja::context! { name => name }).expect("render")
+    let ctx = match exact {
+        Some((plan, edge, blocks)) => minijinja::context! {
+            name => name,
+            exact => true,
+            fine_edge => edge,
+            fine_blocks => format!("{}, {}, {}", blocks[0], blocks[1], blocks[2]),
+            hit => hit_context(plan),
+        },
+        None => minijinja::context! { name => name, exact => false },
+    };
+    env.get_template("raycast").unwrap().render(ctx).expect("render")
 }
 
 /// Renders one isosurface image on the device.
@@ -156,35 +483,74 @@ pub fn render(
     layout: Layout,
     o: &RenderOptions,
 ) -> Result<Frame, GpuError> {
+    render_with_depth(gpu, d, vol, layout, o).map(|(frame, _)| frame)
+}
+
+/// The edge of the fine bounds grid of the exact walk: 1 (one bound per unit
+/// cube) unless the grid would need more than 65535 workgroups of 64 to fill.
+fn fine_edge(dims: [usize; 3], coarse: i32) -> i32 {
+    let mut e = 1i32;
+    while e < coarse.max(1) {
+        let blocks: usize = dims.iter().map(|&n| n.div_ceil(e as usize)).product();
+        if blocks.div_ceil(64) <= 65535 {
+            break;
+        }
+        e *= 2;
+    }
+    e
+}
+
+/// [`render`], and the ray parameter t of every pixel's hit (-1 for a miss).
+pub fn render_with_depth(
+    gpu: &Gpu,
+    d: &Derivation,
+    vol: &LatticeVolume,
+    layout: Layout,
+    o: &RenderOptions,
+) -> Result<(Frame, Vec<f32>), GpuError> {
     let name = &d.filter.name;
     let module = emit(d, &EmitOptions { layout, command: "boxforge render".into(), ..Default::default() })
         .map_err(|e| GpuError::Runtime(e.to_string()))?;
-    let source = format!("{}\n{}", module.source, template(name));
+    let params = ray_params(d, vol, o);
+    let exact = o.hit == HitMode::Exact;
+    let fine = fine_edge(vol.dims, o.block);
+    let fine_blocks = vol.dims.map(|n| n.div_ceil(fine as usize) as i32);
+    let plan = HitPlan::new(d);
+    let source = format!("{}\n{}", module.source, template(name, exact.then_some((&plan, fine, fine_blocks))));
     let shader = gpu.compile(&format!("{name}.raycast.wgsl"), &source)?;
     let dev = &gpu.device;
     let dv = DeviceVolume::new(gpu, vol, layout)?;
-    let params = ray_params(d, vol, o);
     let nblocks = (params.blocks[0] * params.blocks[1] * params.blocks[2]) as usize;
     let out_binding = if layout == Layout::Packed { 2 } else { 1 };
 
-    // Min/max block grid with the emitted kernel.
+    // Min/max block grids with the emitted kernel: blocks of `edge` cubes.
     let mut entries0 = dv.layout_entries(0, wgpu::ShaderStages::COMPUTE);
     entries0.push(storage_entry(out_binding, false));
     entries0.push(uniform_entry(out_binding + 1));
     let bgl_mm =
         dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("minmax"), entries: &entries0 });
-    let blocks_buf = gpu.storage_buffer("blocks", &vec![0u8; nblocks * 8], true);
-    let job: [i32; 8] = [0, 0, 0, 0, params.blocks[0], params.blocks[1], params.blocks[2], o.block];
-    let job_buf = gpu.uniform_buffer("job", bytemuck::cast_slice(&job));
-    let mut bind0 = dv.bind_entries(0);
-    bind0.push(wgpu::BindGroupEntry { binding: out_binding, resource: blocks_buf.as_entire_binding() });
-    bind0.push(wgpu::BindGroupEntry { binding: out_binding + 1, resource: job_buf.as_entire_binding() });
-    let bg_mm =
-        dev.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("minmax"), layout: &bgl_mm, entries: &bind0 });
     let minmax = gpu.pipeline("minmax", &shader, &[&bgl_mm], &format!("{name}_minmax_main"))?;
-    gpu.dispatch("minmax", &minmax, &[&bg_mm], ((nblocks as u32).div_ceil(64), 1, 1))?;
-    let bounds: Vec<f32> = bytemuck::cast_slice(&gpu.read_buffer(&blocks_buf)?).to_vec();
+    let grid = |blocks: [i32; 3], edge: i32| -> Result<(wgpu::Buffer, Vec<f32>), GpuError> {
+        let count = (blocks[0] * blocks[1] * blocks[2]) as usize;
+        let buf = gpu.storage_buffer("blocks", &vec![0u8; count * 8], true);
+        let job: [i32; 8] = [0, 0, 0, 0, blocks[0], blocks[1], blocks[2], edge];
+        let job_buf = gpu.uniform_buffer("job", bytemuck::cast_slice(&job));
+        let mut bind0 = dv.bind_entries(0);
+        bind0.push(wgpu::BindGroupEntry { binding: out_binding, resource: buf.as_entire_binding() });
+        bind0.push(wgpu::BindGroupEntry { binding: out_binding + 1, resource: job_buf.as_entire_binding() });
+        let bg_mm = dev.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("minmax"),
+            layout: &bgl_mm,
+            entries: &bind0,
+        });
+        gpu.dispatch("minmax", &minmax, &[&bg_mm], ((count as u32).div_ceil(64), 1, 1))?;
+        let bounds: Vec<f32> = bytemuck::cast_slice(&gpu.read_buffer(&buf)?).to_vec();
+        Ok((buf, bounds))
+    };
+    let (blocks_buf, bounds) = grid([params.blocks[0], params.blocks[1], params.blocks[2]], o.block)?;
     let empty = bounds.chunks(2).filter(|b| o.iso < b[0] || o.iso > b[1]).count() as f64 / nblocks.max(1) as f64;
+    // The exact walk also tests each segment's cube (or small block) on its own.
+    let fine_buf = if exact { Some(grid(fine_blocks, fine)?.0) } else { None };
 
     // Ray casting.
     let bgl_s = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -193,12 +559,19 @@ pub fn render(
     });
     let bgl_rc = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("raycast"),
-        entries: &[uniform_entry(0), storage_entry(1, false), storage_entry(2, true)],
+        entries: &[
+            uniform_entry(0),
+            storage_entry(1, false),
+            storage_entry(2, true),
+            storage_entry(3, false),
+            storage_entry(4, true),
+        ],
     });
     let raycast = gpu.pipeline("raycast", &shader, &[&bgl_s, &bgl_rc], &format!("{name}_raycast_main"))?;
     let pixels = (o.width * o.height) as usize;
     let params_buf = gpu.uniform_buffer("params", bytemuck::bytes_of(&params));
     let image = gpu.storage_buffer("image", &vec![0u8; pixels * 4], true);
+    let depth = gpu.storage_buffer("depth", &vec![0u8; pixels * 4], true);
     let bg_s =
         dev.create_bind_group(&wgpu::BindGroupDescriptor { label: None, layout: &bgl_s, entries: &dv.bind_entries(0) });
     let bg_rc = dev.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -208,6 +581,8 @@ pub fn render(
             wgpu::BindGroupEntry { binding: 0, resource: params_buf.as_entire_binding() },
             wgpu::BindGroupEntry { binding: 1, resource: image.as_entire_binding() },
             wgpu::BindGroupEntry { binding: 2, resource: blocks_buf.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 3, resource: depth.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 4, resource: fine_buf.as_ref().unwrap_or(&blocks_buf).as_entire_binding() },
         ],
     });
     // One dispatch per frame, or bands of rows with a progress line.
@@ -247,13 +622,22 @@ pub fn render(
     times.sort_by(|a, b| a.total_cmp(b));
     let words: Vec<u32> = bytemuck::cast_slice(&gpu.read_buffer(&image)?).to_vec();
     let rgba = words.iter().flat_map(|w| w.to_le_bytes()).collect();
-    Ok(Frame { width: o.width, height: o.height, rgba, ms_per_frame: times[times.len() / 2], empty_blocks: empty })
+    let depth: Vec<f32> = bytemuck::cast_slice(&gpu.read_buffer(&depth)?).to_vec();
+    let frame =
+        Frame { width: o.width, height: o.height, rgba, ms_per_frame: times[times.len() / 2], empty_blocks: empty };
+    Ok((frame, depth))
 }
 
 /// The same ray caster on the CPU with the exact evaluator in f64 (no
 /// skipping: it must give the same image, which tests the skipping too).
 pub fn cpu_render(d: &Derivation, vol: &LatticeVolume, o: &RenderOptions) -> Vec<u8> {
+    cpu_render_with_depth(d, vol, o).0
+}
+
+/// [`cpu_render`], and the ray parameter t of every pixel's hit (-1 for a miss).
+pub fn cpu_render_with_depth(d: &Derivation, vol: &LatticeVolume, o: &RenderOptions) -> (Vec<u8>, Vec<f32>) {
     let p = ray_params(d, vol, o);
+    let plan = HitPlan::new(d);
     let data = |j: &[i64]| vol.get(j) as f64;
     let f = |x: DVec3| d.eval_f64(&x.to_array(), &data);
     let (w, h) = (o.width as usize, o.height as usize);
@@ -261,11 +645,12 @@ pub fn cpu_render(d: &Derivation, vol: &LatticeVolume, o: &RenderOptions) -> Vec
     let threads = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
     let chunks: Vec<Vec<usize>> = rows.chunks(h.div_ceil(threads)).map(|c| c.to_vec()).collect();
     let mut out = vec![0u8; w * h * 4];
+    let mut depth = vec![-1f32; w * h];
     std::thread::scope(|s| {
         let handles: Vec<_> = chunks
             .iter()
             .map(|rows| {
-                let f = &f;
+                let (f, plan) = (&f, &plan);
                 s.spawn(move || {
                     let mut part = Vec::new();
                     for &y in rows {
@@ -279,8 +664,8 @@ pub fn cpu_render(d: &Derivation, vol: &LatticeVolume, o: &RenderOptions) -> Vec
                             } else {
                                 (eye + sx * rt + sy * up, fw)
                             };
-                            let c = cast_ray(f, origin, dir, &p, o);
-                            part.push((y, x, c));
+                            let (c, t) = cast_ray(f, plan, origin, dir, &p, o);
+                            part.push((y, x, c, t));
                         }
                     }
                     part
@@ -288,22 +673,121 @@ pub fn cpu_render(d: &Derivation, vol: &LatticeVolume, o: &RenderOptions) -> Vec
             })
             .collect();
         for hnd in handles {
-            for (y, x, c) in hnd.join().expect("cpu ray cast") {
+            for (y, x, c, t) in hnd.join().expect("cpu ray cast") {
                 let i = (y * w + x) * 4;
                 out[i..i + 4].copy_from_slice(&c);
+                depth[y * w + x] = t.map_or(-1.0, |t| t as f32);
             }
         }
     });
-    out
+    (out, depth)
+}
+
+/// The first hit by fixed steps and bisection (as the shader's step mode).
+fn hit_step(
+    f: &dyn Fn(DVec3) -> (f64, Vec<f64>),
+    origin: DVec3,
+    dir: DVec3,
+    t0: f64,
+    t1: f64,
+    o: &RenderOptions,
+) -> Option<f64> {
+    let at = |t: f64| origin + t * dir;
+    let iso = o.iso as f64;
+    let step = o.step as f64;
+    let mut t = t0;
+    let mut prev = f(at(t)).0 - iso;
+    let mut hit = None;
+    while t < t1 {
+        let tn = (t + step).min(t1);
+        let v = f(at(tn)).0 - iso;
+        if (prev < 0.0) != (v < 0.0) {
+            hit = Some((t, tn));
+            break;
+        }
+        prev = v;
+        t = tn;
+    }
+    let (mut a, mut b) = hit?;
+    let sa = f(at(a)).0 - iso < 0.0;
+    while b - a >= 1e-4 {
+        let m = 0.5 * (a + b);
+        if (f(at(m)).0 - iso < 0.0) == sa {
+            a = m;
+        } else {
+            b = m;
+        }
+    }
+    Some(0.5 * (a + b))
+}
+
+/// The exact first hit: the ray from the box entry is cut at every plane
+/// of the plan, each segment sampled at the plan's nodes, its Bernstein
+/// coefficients tested for one sign and otherwise searched with
+/// [`first_root`] (the shader's exact walk in f64, without skipping).
+pub fn hit_exact(
+    f: &dyn Fn(DVec3) -> f64,
+    plan: &HitPlan,
+    origin: DVec3,
+    dir: DVec3,
+    t0: f64,
+    t1: f64,
+    iso: f64,
+) -> Option<f64> {
+    let o = origin + t0 * dir;
+    let tend = t1 - t0;
+    let fam: Vec<(f64, f64, f64)> = plan
+        .families
+        .iter()
+        .map(|(n, off, g)| (DVec3::from_array(*n).dot(o) - off, DVec3::from_array(*n).dot(dir), *g))
+        .collect();
+    let steps: Vec<f64> =
+        fam.iter().map(|&(_, b, g)| if b.abs() > 1e-9 { g / b.abs() } else { f64::INFINITY }).collect();
+    let mut next: Vec<f64> = fam.iter().map(|&(a, b, g)| next_crossing(a, b, g, 0.0)).collect();
+    let n = plan.degree;
+    let mut t = 0.0;
+    let mut prev: Option<f64> = None;
+    let mut v = vec![0.0; n + 1];
+    while t < tend {
+        let te = next.iter().fold(tend, |m, &x| m.min(x));
+        for (x, s) in next.iter_mut().zip(&steps) {
+            if *x <= te + HIT_MERGE {
+                *x += s;
+            }
+        }
+        if te < tend && te - t < HIT_MERGE {
+            continue;
+        }
+        let len = te - t;
+        for (i, &u) in plan.nodes.iter().enumerate() {
+            v[i] = match (i, prev) {
+                (0, Some(p)) if plan.shared_ends => p,
+                _ if plan.shared_ends && i == n => f(o + te * dir) - iso,
+                _ => f(o + (t + len * u) * dir) - iso,
+            };
+        }
+        let c = plan.coefficients(&v);
+        let lo = c.iter().fold(f64::INFINITY, |m, &x| m.min(x));
+        let hi = c.iter().fold(f64::NEG_INFINITY, |m, &x| m.max(x));
+        if lo < 0.0 && hi >= 0.0 {
+            if let Some(u) = first_root(&c, HIT_TOLERANCE / len) {
+                return Some(t0 + t + u * len);
+            }
+        }
+        prev = Some(v[n]);
+        t = te;
+    }
+    None
 }
 
 fn cast_ray(
     f: &dyn Fn(DVec3) -> (f64, Vec<f64>),
+    plan: &HitPlan,
     origin: DVec3,
     dir: DVec3,
     p: &RayParams,
     o: &RenderOptions,
-) -> [u8; 4] {
+) -> ([u8; 4], Option<f64>) {
     let at = |t: f64| origin + t * dir;
     let (mut t0, mut t1) = (0f64, f64::INFINITY);
     for i in 0..3 {
@@ -313,35 +797,16 @@ fn cast_ray(
         t1 = t1.min(a.max(b));
     }
     let mut color = DVec3::new(0.08, 0.08, 0.1);
+    let mut hit = None;
     if t0 < t1 {
-        let iso = o.iso as f64;
-        let step = o.step as f64;
-        let mut t = t0;
-        let mut prev = f(at(t)).0 - iso;
-        let mut hit = None;
-        while t < t1 {
-            let tn = (t + step).min(t1);
-            let v = f(at(tn)).0 - iso;
-            if (prev < 0.0) != (v < 0.0) {
-                hit = Some((t, tn));
-                break;
-            }
-            prev = v;
-            t = tn;
-        }
-        if let Some((mut a, mut b)) = hit {
-            let sa = f(at(a)).0 - iso < 0.0;
-            while b - a >= 1e-4 {
-                let m = 0.5 * (a + b);
-                if (f(at(m)).0 - iso < 0.0) == sa {
-                    a = m;
-                } else {
-                    b = m;
-                }
-            }
+        hit = match o.hit {
+            HitMode::Step => hit_step(f, origin, dir, t0, t1, o),
+            HitMode::Exact => hit_exact(&|x| f(x).0, plan, origin, dir, t0, t1, o.iso as f64),
+        };
+        if let Some(th) = hit {
             // Normalised by dividing by the length (not glam's normalize,
             // which multiplies by the reciprocal) to keep the rounding.
-            let g = DVec3::from_slice(&f(at(0.5 * (a + b))).1);
+            let g = DVec3::from_slice(&f(at(th)).1);
             let mut n = g / g.length().max(1e-20);
             if n.dot(dir) > 0.0 {
                 n = -n;
@@ -362,7 +827,7 @@ fn cast_ray(
         }
     }
     let q = |v: f64| (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8;
-    [q(color[0]), q(color[1]), q(color[2]), 255]
+    ([q(color[0]), q(color[1]), q(color[2]), 255], hit)
 }
 
 /// Writes RGBA8 pixels as a PNG.
