@@ -198,20 +198,25 @@ pub struct HitPlan {
     pub grid_offset: [f64; 3],
     /// The filter's degree: the degree of the spline on every segment.
     pub degree: usize,
-    /// Nodes in [0,1] where a segment is sampled. With `shared_ends` they are
-    /// the Chebyshev extrema (0 and 1 included, the end of one segment is
-    /// the start of the next); otherwise Chebyshev roots inside (0,1), for
-    /// discontinuous splines whose value on a knot plane is ambiguous.
-    pub nodes: Vec<f64>,
-    /// Whether the nodes include both ends.
+    /// Where a segment is sampled (u in [0,1]) and whether the sample also
+    /// takes the derivative along the ray (from `_eval_grad`, which costs
+    /// about one `_eval`): together degree + 1 conditions.
+    pub samples: Vec<(f64, bool)>,
+    /// Whether the samples start at u = 0 and end at u = 1, so that the end
+    /// sample of one segment is the start sample of the next (continuous
+    /// splines; with derivatives only for C^1 and smoother ones).
     pub shared_ends: bool,
-    /// `to_bernstein[j][i]`: weight of the sample at node i in Bernstein
-    /// coefficient j (the inverse of the matrix B_j^n(node_i)).
+    /// `to_bernstein[j][c]`: weight of condition c (each sample's value, then
+    /// its derivative d/du if taken) in Bernstein coefficient j.
     pub to_bernstein: Vec<Vec<f64>>,
 }
 
 impl HitPlan {
-    /// The plan of a 3D filter.
+    /// The plan of a 3D filter. C^1 splines of degree >= 3 sample value and
+    /// derivative at both ends and (n - 3) more conditions at interior
+    /// Chebyshev points (Hermite data: about half the samples of values only);
+    /// other continuous splines values at the Chebyshev extrema; discontinuous
+    /// ones values at the Chebyshev roots inside (0,1), off the knot planes.
     pub fn new(d: &Derivation) -> HitPlan {
         let arr = &d.arrangement;
         let grid_offset = [0, 1, 2].map(|i| arr.grid_offset[i].to_f64());
@@ -228,31 +233,43 @@ impl HitPlan {
             }
         }
         let n = d.facts.degree;
-        let shared_ends = d.facts.continuity >= 0 && n > 0;
         let pi = std::f64::consts::PI;
-        let nodes: Vec<f64> = (0..=n)
-            .map(|i| {
-                if shared_ends {
-                    // Exactly 0 and 1 at the ends.
-                    if i == 0 {
-                        0.0
-                    } else if i == n {
-                        1.0
-                    } else {
-                        0.5 * (1.0 - (pi * i as f64 / n as f64).cos())
-                    }
-                } else {
-                    0.5 * (1.0 - (pi * (2 * i + 1) as f64 / (2 * n + 2) as f64).cos())
-                }
-            })
-            .collect();
-        let m: Vec<Vec<f64>> = nodes.iter().map(|&x| (0..=n).map(|j| bernstein(n, j, x)).collect()).collect();
-        HitPlan { families, grid_offset, degree: n, nodes, shared_ends, to_bernstein: invert(&m) }
+        let cheb = |k: usize, m: usize| 0.5 * (1.0 - (pi * k as f64 / m as f64).cos());
+        let (samples, shared_ends): (Vec<(f64, bool)>, bool) = if d.facts.continuity >= 1 && n >= 3 {
+            let r = n - 3;
+            let m = r.div_ceil(2);
+            let mut v = vec![(0.0, true)];
+            v.extend((1..=m).map(|k| (cheb(k, m + 1), !(r % 2 == 1 && k == m))));
+            v.push((1.0, true));
+            (v, true)
+        } else if d.facts.continuity >= 0 && n > 0 {
+            ((0..=n).map(|i| (if i == n { 1.0 } else { cheb(i, n) }, false)).collect(), true)
+        } else {
+            (
+                (0..=n).map(|i| (0.5 * (1.0 - (pi * (2 * i + 1) as f64 / (2 * n + 2) as f64).cos()), false)).collect(),
+                false,
+            )
+        };
+        let mut m: Vec<Vec<f64>> = Vec::new();
+        for &(x, grad) in &samples {
+            m.push((0..=n).map(|j| bernstein(n, j, x)).collect());
+            if grad {
+                m.push((0..=n).map(|j| bernstein_du(n, j, x)).collect());
+            }
+        }
+        assert_eq!(m.len(), n + 1, "degree + 1 conditions");
+        HitPlan { families, grid_offset, degree: n, samples, shared_ends, to_bernstein: invert(&m) }
     }
 
-    /// Bernstein coefficients on [0,1] from the samples at the nodes.
-    pub fn coefficients(&self, values: &[f64]) -> Vec<f64> {
-        self.to_bernstein.iter().map(|row| row.iter().zip(values).map(|(w, v)| w * v).sum()).collect()
+    /// Bernstein coefficients on [0,1] from the conditions (values and
+    /// derivatives d/du in the order of `samples`).
+    pub fn coefficients(&self, conditions: &[f64]) -> Vec<f64> {
+        self.to_bernstein.iter().map(|row| row.iter().zip(conditions).map(|(w, v)| w * v).sum()).collect()
+    }
+
+    /// Samples per segment that call the evaluator (shared ends not counted).
+    pub fn evals_per_segment(&self) -> usize {
+        self.samples.len() - self.shared_ends as usize
     }
 }
 
@@ -263,6 +280,13 @@ fn bernstein(n: usize, j: usize, x: f64) -> f64 {
         binom = binom * (n - k) as f64 / (k + 1) as f64;
     }
     binom * x.powi(j as i32) * (1.0 - x).powi((n - j) as i32)
+}
+
+/// d/dx B_j^n(x) = n (B_{j-1}^{n-1}(x) - B_j^{n-1}(x)).
+fn bernstein_du(n: usize, j: usize, x: f64) -> f64 {
+    let lower = |k: usize| if k < n { bernstein(n - 1, k, x) } else { 0.0 };
+    let left = if j > 0 { lower(j - 1) } else { 0.0 };
+    n as f64 * (left - lower(j))
 }
 
 /// The inverse of a small well-conditioned matrix (Gauss-Jordan, partial pivoting).
@@ -408,8 +432,23 @@ fn lit(x: f64) -> String {
     format!("{:?}", x as f32)
 }
 
-/// The minijinja context of the exact walk for this plan.
-fn hit_context(plan: &HitPlan) -> minijinja::Value {
+/// The names of the conditions of a plan (v_i values, d_i derivatives d/du).
+fn condition_names(plan: &HitPlan) -> Vec<String> {
+    let mut names = Vec::new();
+    for (i, &(_, grad)) in plan.samples.iter().enumerate() {
+        names.push(format!("v{i}"));
+        if grad {
+            names.push(format!("d{i}"));
+        }
+    }
+    names
+}
+
+/// The minijinja context of the exact walk for this plan: the sampling code
+/// of one segment [t, te] (length len, `pv`/`pg` the value and d/dt carried
+/// from the previous segment's end when `have`), the Bernstein coefficients
+/// c_j as sums over the conditions, and the carry to the next segment.
+fn hit_context(plan: &HitPlan, name: &str) -> minijinja::Value {
     let families: Vec<minijinja::Value> = plan
         .families
         .iter()
@@ -421,17 +460,54 @@ fn hit_context(plan: &HitPlan) -> minijinja::Value {
             }
         })
         .collect();
-    let n = plan.degree;
-    // Coefficient j of f - iso as a sum over the node samples v_i.
+    let last = plan.samples.len() - 1;
+    let mut code = String::new();
+    let mut carry = String::new();
+    for (i, &(x, grad)) in plan.samples.iter().enumerate() {
+        let pos = if plan.shared_ends && i == 0 {
+            "o + t * dir".to_string()
+        } else if plan.shared_ends && i == last {
+            "o + te * dir".to_string()
+        } else {
+            format!("o + (t + len * {}) * dir", lit(x))
+        };
+        if plan.shared_ends && i == 0 {
+            let fresh = if grad {
+                format!(
+                    "let g = {name}_eval_grad({pos});\n            pv = g.x - iso;\n            pg = dot(g.yzw, dir);"
+                )
+            } else {
+                format!("pv = {name}_eval({pos}) - iso;")
+            };
+            code += &format!("        if (!have) {{\n            {fresh}\n        }}\n        let v0 = pv;\n");
+            if grad {
+                code += "        let d0 = len * pg;\n";
+            }
+        } else if grad {
+            code += &format!(
+                "        let g{i} = {name}_eval_grad({pos});\n        let v{i} = g{i}.x - iso;\n        let d{i} = len * dot(g{i}.yzw, dir);\n"
+            );
+        } else {
+            code += &format!("        let v{i} = {name}_eval({pos}) - iso;\n");
+        }
+        if plan.shared_ends && i == last {
+            carry = format!("pv = v{i};");
+            if grad {
+                carry += &format!(" pg = dot(g{i}.yzw, dir);");
+            }
+        }
+    }
+    let names = condition_names(plan);
+    // Coefficient j of f - iso as a sum over the conditions.
     let coefs: Vec<String> = plan
         .to_bernstein
         .iter()
         .map(|row| {
             let terms: Vec<String> = row
                 .iter()
-                .enumerate()
-                .filter(|(_, w)| w.abs() > 1e-12)
-                .map(|(i, &w)| if (w - 1.0).abs() < 1e-12 { format!("v{i}") } else { format!("{} * v{i}", lit(w)) })
+                .zip(&names)
+                .filter(|(w, _)| w.abs() > 1e-12)
+                .map(|(&w, v)| if (w - 1.0).abs() < 1e-12 { v.clone() } else { format!("{} * {v}", lit(w)) })
                 .collect();
             if terms.is_empty() {
                 "0.0".to_string()
@@ -442,9 +518,9 @@ fn hit_context(plan: &HitPlan) -> minijinja::Value {
         .collect();
     minijinja::context! {
         families => families,
-        degree => n,
-        nodes => plan.nodes.iter().map(|&x| lit(x)).collect::<Vec<_>>(),
-        shared_ends => plan.shared_ends,
+        degree => plan.degree,
+        samples => code,
+        carry => carry,
         coefs => coefs,
         grid_offset => format!("{}, {}, {}", lit(plan.grid_offset[0]), lit(plan.grid_offset[1]), lit(plan.grid_offset[2])),
         merge => lit(HIT_MERGE),
@@ -468,7 +544,7 @@ fn template(name: &str, exact: Option<(&HitPlan, i32, [i32; 3])>) -> String {
             exact => true,
             fine_edge => edge,
             fine_blocks => format!("{}, {}, {}", blocks[0], blocks[1], blocks[2]),
-            hit => hit_context(plan),
+            hit => hit_context(plan, name),
         },
         None => minijinja::context! { name => name, exact => false },
     };
@@ -517,6 +593,17 @@ pub fn render_with_depth(
     let fine_blocks = vol.dims.map(|n| n.div_ceil(fine as usize) as i32);
     let plan = HitPlan::new(d);
     let source = format!("{}\n{}", module.source, template(name, exact.then_some((&plan, fine, fine_blocks))));
+    let mut source = source;
+    if let Ok(x) = std::env::var("HIT_EXP") {
+        for pair in x.split(";;") {
+            if let Some((a, b)) = pair.split_once("=>") {
+                source = source.replace(a, b);
+            }
+        }
+    }
+    if let Ok(path) = std::env::var("HIT_DUMP") {
+        std::fs::write(path, &source).ok();
+    }
     let shader = gpu.compile(&format!("{name}.raycast.wgsl"), &source)?;
     let dev = &gpu.device;
     let dv = DeviceVolume::new(gpu, vol, layout)?;
@@ -722,11 +809,12 @@ fn hit_step(
 }
 
 /// The exact first hit: the ray from the box entry is cut at every plane
-/// of the plan, each segment sampled at the plan's nodes, its Bernstein
+/// of the plan, each segment sampled as the plan says, its Bernstein
 /// coefficients tested for one sign and otherwise searched with
-/// [`first_root`] (the shader's exact walk in f64, without skipping).
+/// [`first_root`] (the shader's exact walk in f64, without skipping). `f`
+/// gives the value and gradient.
 pub fn hit_exact(
-    f: &dyn Fn(DVec3) -> f64,
+    f: &dyn Fn(DVec3) -> (f64, Vec<f64>),
     plan: &HitPlan,
     origin: DVec3,
     dir: DVec3,
@@ -744,10 +832,15 @@ pub fn hit_exact(
     let steps: Vec<f64> =
         fam.iter().map(|&(_, b, g)| if b.abs() > 1e-9 { g / b.abs() } else { f64::INFINITY }).collect();
     let mut next: Vec<f64> = fam.iter().map(|&(a, b, g)| next_crossing(a, b, g, 0.0)).collect();
-    let n = plan.degree;
+    let last = plan.samples.len() - 1;
+    // Value and d/dt along the ray.
+    let sample = |t: f64| {
+        let (v, g) = f(o + t * dir);
+        (v - iso, DVec3::from_slice(&g).dot(dir))
+    };
     let mut t = 0.0;
-    let mut prev: Option<f64> = None;
-    let mut v = vec![0.0; n + 1];
+    let mut prev: Option<(f64, f64)> = None;
+    let mut cond = Vec::with_capacity(plan.degree + 1);
     while t < tend {
         let te = next.iter().fold(tend, |m, &x| m.min(x));
         for (x, s) in next.iter_mut().zip(&steps) {
@@ -759,14 +852,22 @@ pub fn hit_exact(
             continue;
         }
         let len = te - t;
-        for (i, &u) in plan.nodes.iter().enumerate() {
-            v[i] = match (i, prev) {
+        cond.clear();
+        let mut end = (0.0, 0.0);
+        for (i, &(u, grad)) in plan.samples.iter().enumerate() {
+            let (v, dt) = match (i, prev) {
                 (0, Some(p)) if plan.shared_ends => p,
-                _ if plan.shared_ends && i == n => f(o + te * dir) - iso,
-                _ => f(o + (t + len * u) * dir) - iso,
+                _ if plan.shared_ends && i == last => sample(te),
+                _ if plan.shared_ends && i == 0 => sample(t),
+                _ => sample(t + len * u),
             };
+            cond.push(v);
+            if grad {
+                cond.push(len * dt);
+            }
+            end = (v, dt);
         }
-        let c = plan.coefficients(&v);
+        let c = plan.coefficients(&cond);
         let lo = c.iter().fold(f64::INFINITY, |m, &x| m.min(x));
         let hi = c.iter().fold(f64::NEG_INFINITY, |m, &x| m.max(x));
         if lo < 0.0 && hi >= 0.0 {
@@ -774,7 +875,7 @@ pub fn hit_exact(
                 return Some(t0 + t + u * len);
             }
         }
-        prev = Some(v[n]);
+        prev = Some(end);
         t = te;
     }
     None
@@ -801,7 +902,7 @@ fn cast_ray(
     if t0 < t1 {
         hit = match o.hit {
             HitMode::Step => hit_step(f, origin, dir, t0, t1, o),
-            HitMode::Exact => hit_exact(&|x| f(x).0, plan, origin, dir, t0, t1, o.iso as f64),
+            HitMode::Exact => hit_exact(f, plan, origin, dir, t0, t1, o.iso as f64),
         };
         if let Some(th) = hit {
             // Normalised by dividing by the length (not glam's normalize,
