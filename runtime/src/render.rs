@@ -41,9 +41,10 @@ pub enum HitMode {
     /// Bernstein coefficients (from degree + 1 samples) exclude the segment
     /// or lead to its first root by Bernstein subdivision. Finds thin
     /// features that fixed steps jump over.
-    #[default]
     Exact,
-    /// Fixed steps of `step` cells with a sign test, then bisection.
+    /// Fixed steps of `step` cells with a sign test, then bisection (the
+    /// library default, so existing callers and bench rows keep their meaning).
+    #[default]
     Step,
 }
 
