@@ -210,7 +210,21 @@ pub struct HitPlan {
     /// `to_bernstein[j][c]`: weight of condition c (each sample's value, then
     /// its derivative d/du if taken) in Bernstein coefficient j.
     pub to_bernstein: Vec<Vec<f64>>,
+    /// For C^2 splines of even degree: the segment after an evaluated one
+    /// may take the second derivative at its start from the previous
+    /// segment's polynomial (the spline is C^2 across every plane), one
+    /// sample fewer. `carried_samples` are its interior samples (value and
+    /// derivative each), `carried_to_bernstein` the conversion of the
+    /// conditions [v0, d0, s0 (d²/du²), interior..., v1, d1].
+    pub carried_samples: Vec<f64>,
+    /// See `carried_samples`; empty when segments never carry.
+    pub carried_to_bernstein: Vec<Vec<f64>>,
 }
+
+/// A carried second derivative is used only on a segment no longer than
+/// the previous one (its rounding error scales with the squared length
+/// ratio, so it never grows) and for at most this many segments in a row.
+pub const HIT_CARRY_CHAIN: usize = 8;
 
 impl HitPlan {
     /// The plan of a 3D filter. C^1 splines of degree >= 3 sample value and
@@ -259,13 +273,45 @@ impl HitPlan {
             }
         }
         assert_eq!(m.len(), n + 1, "degree + 1 conditions");
-        HitPlan { families, grid_offset, degree: n, samples, shared_ends, to_bernstein: invert(&m) }
+        let (mut carried_samples, mut carried_to_bernstein) = (vec![], vec![]);
+        if d.facts.continuity >= 2 && n >= 4 && n % 2 == 0 {
+            let k = (n - 4) / 2;
+            carried_samples = (1..=k).map(|i| cheb(i, k + 1)).collect();
+            let mut rows: Vec<Vec<f64>> = vec![
+                (0..=n).map(|j| bernstein(n, j, 0.0)).collect(),
+                (0..=n).map(|j| bernstein_du(n, j, 0.0)).collect(),
+                (0..=n).map(|j| bernstein_du2(n, j, 0.0)).collect(),
+            ];
+            for &x in &carried_samples {
+                rows.push((0..=n).map(|j| bernstein(n, j, x)).collect());
+                rows.push((0..=n).map(|j| bernstein_du(n, j, x)).collect());
+            }
+            rows.push((0..=n).map(|j| bernstein(n, j, 1.0)).collect());
+            rows.push((0..=n).map(|j| bernstein_du(n, j, 1.0)).collect());
+            assert_eq!(rows.len(), n + 1, "degree + 1 conditions");
+            carried_to_bernstein = invert(&rows);
+        }
+        HitPlan {
+            families,
+            grid_offset,
+            degree: n,
+            samples,
+            shared_ends,
+            to_bernstein: invert(&m),
+            carried_samples,
+            carried_to_bernstein,
+        }
     }
 
     /// Bernstein coefficients on [0,1] from the conditions (values and
     /// derivatives d/du in the order of `samples`).
     pub fn coefficients(&self, conditions: &[f64]) -> Vec<f64> {
-        self.to_bernstein.iter().map(|row| row.iter().zip(conditions).map(|(w, v)| w * v).sum()).collect()
+        self.coefficients_with(&self.to_bernstein, conditions)
+    }
+
+    /// Bernstein coefficients from conditions through a conversion matrix.
+    pub fn coefficients_with(&self, m: &[Vec<f64>], conditions: &[f64]) -> Vec<f64> {
+        m.iter().map(|row| row.iter().zip(conditions).map(|(w, v)| w * v).sum()).collect()
     }
 
     /// Samples per segment that call the evaluator (shared ends not counted).
@@ -281,6 +327,20 @@ fn bernstein(n: usize, j: usize, x: f64) -> f64 {
         binom = binom * (n - k) as f64 / (k + 1) as f64;
     }
     binom * x.powi(j as i32) * (1.0 - x).powi((n - j) as i32)
+}
+
+/// d²/dx² B_j^n(x) = n (n - 1) (B_{j-2}^{n-2} - 2 B_{j-1}^{n-2} + B_j^{n-2})(x).
+fn bernstein_du2(n: usize, j: usize, x: f64) -> f64 {
+    let b = |k: i64| if k >= 0 && k as usize <= n - 2 { bernstein(n - 2, k as usize, x) } else { 0.0 };
+    let j = j as i64;
+    (n * (n - 1)) as f64 * (b(j - 2) - 2.0 * b(j - 1) + b(j))
+}
+
+/// The second derivative d²/dt² at the end of a segment of length `len`
+/// from the Bernstein coefficients of its polynomial (in u).
+pub fn end_second_derivative(c: &[f64], len: f64) -> f64 {
+    let n = c.len() - 1;
+    (n * (n - 1)) as f64 * (c[n] - 2.0 * c[n - 1] + c[n - 2]) / (len * len)
 }
 
 /// d/dx B_j^n(x) = n (B_{j-1}^{n-1}(x) - B_j^{n-1}(x)).
@@ -433,22 +493,29 @@ fn lit(x: f64) -> String {
     format!("{:?}", x as f32)
 }
 
-/// The names of the conditions of a plan (v_i values, d_i derivatives d/du).
-fn condition_names(plan: &HitPlan) -> Vec<String> {
-    let mut names = Vec::new();
-    for (i, &(_, grad)) in plan.samples.iter().enumerate() {
-        names.push(format!("v{i}"));
-        if grad {
-            names.push(format!("d{i}"));
-        }
-    }
-    names
+/// Coefficient expressions c_j = sum_k w_jk names_k.
+fn coefficient_exprs(m: &[Vec<f64>], names: &[String]) -> Vec<String> {
+    m.iter()
+        .map(|row| {
+            let terms: Vec<String> = row
+                .iter()
+                .zip(names)
+                .filter(|(w, _)| w.abs() > 1e-12)
+                .map(|(&w, v)| if (w - 1.0).abs() < 1e-12 { v.clone() } else { format!("{} * {v}", lit(w)) })
+                .collect();
+            if terms.is_empty() {
+                "0.0".to_string()
+            } else {
+                terms.join(" + ")
+            }
+        })
+        .collect()
 }
 
 /// The minijinja context of the exact walk for this plan: the sampling code
-/// of one segment [t, te] (length len, `pv`/`pg` the value and d/dt carried
-/// from the previous segment's end when `have`), the Bernstein coefficients
-/// c_j as sums over the conditions, and the carry to the next segment.
+/// of one segment [t, te] (length len; `pv`, `pg`, `ps` the value, d/dt and
+/// d²/dt² carried from the previous segment's end when `have`), assigning
+/// the Bernstein coefficients c_j, and the carry to the next segment.
 fn hit_context(plan: &HitPlan, name: &str) -> minijinja::Value {
     let families: Vec<minijinja::Value> = plan
         .families
@@ -461,68 +528,97 @@ fn hit_context(plan: &HitPlan, name: &str) -> minijinja::Value {
             }
         })
         .collect();
+    let n = plan.degree;
     let last = plan.samples.len() - 1;
-    let mut code = String::new();
-    let mut carry = String::new();
-    for (i, &(x, grad)) in plan.samples.iter().enumerate() {
-        let pos = if plan.shared_ends && i == 0 {
-            "o + t * dir".to_string()
-        } else if plan.shared_ends && i == last {
-            "o + te * dir".to_string()
-        } else {
-            format!("o + (t + len * {}) * dir", lit(x))
-        };
-        if plan.shared_ends && i == 0 {
-            let fresh = if grad {
-                format!(
-                    "let g = {name}_eval_grad({pos});\n            pv = g.x - iso;\n            pg = dot(g.yzw, dir);"
-                )
-            } else {
-                format!("pv = {name}_eval({pos}) - iso;")
-            };
-            code += &format!("        if (!have) {{\n            {fresh}\n        }}\n        let v0 = pv;\n");
-            if grad {
-                code += "        let d0 = len * pg;\n";
-            }
-        } else if grad {
-            code += &format!(
-                "        let g{i} = {name}_eval_grad({pos});\n        let v{i} = g{i}.x - iso;\n        let d{i} = len * dot(g{i}.yzw, dir);\n"
+    let pos = |x: f64| format!("o + (t + len * {}) * dir", lit(x));
+    let sample = |code: &mut String, v: &str, dv: &str, p: &str, grad: bool, indent: &str| {
+        if grad {
+            *code += &format!(
+                "{indent}let g{v} = {name}_eval_grad({p});\n{indent}let {v} = g{v}.x - iso;\n{indent}let {dv} = len * dot(g{v}.yzw, dir);\n"
             );
         } else {
-            code += &format!("        let v{i} = {name}_eval({pos}) - iso;\n");
+            *code += &format!("{indent}let {v} = {name}_eval({p}) - iso;\n");
         }
-        if plan.shared_ends && i == last {
-            carry = format!("pv = v{i};");
+    };
+    let mut code = String::new();
+    let mut names = Vec::new();
+    let (start_grad, end_grad) = (plan.samples[0].1, plan.samples[last].1);
+    if plan.shared_ends {
+        let fresh = if start_grad {
+            format!("let g = {name}_eval_grad(o + t * dir);\n            pv = g.x - iso;\n            pg = dot(g.yzw, dir);")
+        } else {
+            format!("pv = {name}_eval(o + t * dir) - iso;")
+        };
+        code += &format!(
+            "        if (!have) {{\n            {fresh}\n            ps = 0.0;\n        }}\n        let v0 = pv;\n"
+        );
+        if start_grad {
+            code += "        let d0 = len * pg;\n";
+        }
+        sample(&mut code, "ve", "de", "o + te * dir", end_grad, "        ");
+    }
+    let carry = !plan.carried_to_bernstein.is_empty();
+    code += &(0..=n).map(|j| format!("        var c{j} = 0.0;\n")).collect::<String>();
+    let mut fresh_code = String::new();
+    for (i, &(x, grad)) in plan.samples.iter().enumerate() {
+        if plan.shared_ends && i == 0 {
+            names.push("v0".to_string());
             if grad {
-                carry += &format!(" pg = dot(g{i}.yzw, dir);");
+                names.push("d0".to_string());
+            }
+        } else if plan.shared_ends && i == last {
+            names.push("ve".to_string());
+            if grad {
+                names.push("de".to_string());
+            }
+        } else {
+            let (v, dv) = (format!("v{i}"), format!("d{i}"));
+            sample(&mut fresh_code, &v, &dv, &pos(x), grad, "            ");
+            names.push(v);
+            if grad {
+                names.push(dv);
             }
         }
     }
-    let names = condition_names(plan);
-    // Coefficient j of f - iso as a sum over the conditions.
-    let coefs: Vec<String> = plan
-        .to_bernstein
-        .iter()
-        .map(|row| {
-            let terms: Vec<String> = row
-                .iter()
-                .zip(&names)
-                .filter(|(w, _)| w.abs() > 1e-12)
-                .map(|(&w, v)| if (w - 1.0).abs() < 1e-12 { v.clone() } else { format!("{} * {v}", lit(w)) })
-                .collect();
-            if terms.is_empty() {
-                "0.0".to_string()
-            } else {
-                terms.join(" + ")
-            }
-        })
-        .collect();
+    for (j, e) in coefficient_exprs(&plan.to_bernstein, &names).iter().enumerate() {
+        fresh_code += &format!("            c{j} = {e};\n");
+    }
+    if carry {
+        let mut carried_code = String::from("            let s0 = len * len * ps;\n");
+        let mut cnames: Vec<String> = ["v0", "d0", "s0"].map(String::from).to_vec();
+        for (k, &x) in plan.carried_samples.iter().enumerate() {
+            let (v, dv) = (format!("vc{k}"), format!("dc{k}"));
+            sample(&mut carried_code, &v, &dv, &pos(x), true, "            ");
+            cnames.push(v);
+            cnames.push(dv);
+        }
+        cnames.push("ve".into());
+        cnames.push("de".into());
+        for (j, e) in coefficient_exprs(&plan.carried_to_bernstein, &cnames).iter().enumerate() {
+            carried_code += &format!("            c{j} = {e};\n");
+        }
+        code += &format!(
+            "        if (have && len <= lp && chain < {HIT_CARRY_CHAIN}) {{\n{carried_code}            chain += 1;\n        }} else {{\n{fresh_code}            chain = 0;\n        }}\n"
+        );
+    } else {
+        code += &format!("        {{\n{fresh_code}        }}\n");
+    }
+    let mut carry_code = String::new();
+    if plan.shared_ends {
+        carry_code = "pv = ve;".into();
+        if end_grad {
+            carry_code += " pg = dot(gve.yzw, dir);";
+        }
+        if carry {
+            carry_code +=
+                &format!(" ps = {}.0 * (c{n} - 2.0 * c{} + c{}) / (len * len); lp = len;", n * (n - 1), n - 1, n - 2);
+        }
+    }
     minijinja::context! {
         families => families,
-        degree => plan.degree,
+        degree => n,
         samples => code,
-        carry => carry,
-        coefs => coefs,
+        carry => carry_code,
         grid_offset => format!("{}, {}, {}", lit(plan.grid_offset[0]), lit(plan.grid_offset[1]), lit(plan.grid_offset[2])),
         merge => lit(HIT_MERGE),
         depth => HIT_DEPTH,
@@ -594,17 +690,6 @@ pub fn render_with_depth(
     let fine_blocks = vol.dims.map(|n| n.div_ceil(fine as usize) as i32);
     let plan = HitPlan::new(d);
     let source = format!("{}\n{}", module.source, template(name, exact.then_some((&plan, fine, fine_blocks))));
-    let mut source = source;
-    if let Ok(x) = std::env::var("HIT_EXP") {
-        for pair in x.split(";;") {
-            if let Some((a, b)) = pair.split_once("=>") {
-                source = source.replace(a, b);
-            }
-        }
-    }
-    if let Ok(path) = std::env::var("HIT_DUMP") {
-        std::fs::write(path, &source).ok();
-    }
     let shader = gpu.compile(&format!("{name}.raycast.wgsl"), &source)?;
     let dev = &gpu.device;
     let dv = DeviceVolume::new(gpu, vol, layout)?;
@@ -839,8 +924,11 @@ pub fn hit_exact(
         let (v, g) = f(o + t * dir);
         (v - iso, DVec3::from_slice(&g).dot(dir))
     };
+    let carry = !plan.carried_to_bernstein.is_empty();
     let mut t = 0.0;
-    let mut prev: Option<(f64, f64)> = None;
+    // Value, d/dt and d²/dt² at the previous segment's end, and its length.
+    let mut prev: Option<(f64, f64, f64, f64)> = None;
+    let mut chain = 0;
     let mut cond = Vec::with_capacity(plan.degree + 1);
     while t < tend {
         let te = next.iter().fold(tend, |m, &x| m.min(x));
@@ -854,21 +942,38 @@ pub fn hit_exact(
         }
         let len = te - t;
         cond.clear();
-        let mut end = (0.0, 0.0);
-        for (i, &(u, grad)) in plan.samples.iter().enumerate() {
-            let (v, dt) = match (i, prev) {
-                (0, Some(p)) if plan.shared_ends => p,
-                _ if plan.shared_ends && i == last => sample(te),
-                _ if plan.shared_ends && i == 0 => sample(t),
-                _ => sample(t + len * u),
-            };
-            cond.push(v);
-            if grad {
-                cond.push(len * dt);
+        let start = match prev {
+            Some((v, dt, _, _)) if plan.shared_ends => (v, dt),
+            _ => sample(t),
+        };
+        let end = if plan.shared_ends { sample(te) } else { (0.0, 0.0) };
+        let c = match prev {
+            Some((_, _, s, lp)) if carry && len <= lp && chain < HIT_CARRY_CHAIN => {
+                chain += 1;
+                cond.extend([start.0, len * start.1, len * len * s]);
+                for &u in &plan.carried_samples {
+                    let (v, dt) = sample(t + len * u);
+                    cond.extend([v, len * dt]);
+                }
+                cond.extend([end.0, len * end.1]);
+                plan.coefficients_with(&plan.carried_to_bernstein, &cond)
             }
-            end = (v, dt);
-        }
-        let c = plan.coefficients(&cond);
+            _ => {
+                chain = 0;
+                for (i, &(u, grad)) in plan.samples.iter().enumerate() {
+                    let (v, dt) = match i {
+                        0 if plan.shared_ends => start,
+                        _ if plan.shared_ends && i == last => end,
+                        _ => sample(t + len * u),
+                    };
+                    cond.push(v);
+                    if grad {
+                        cond.push(len * dt);
+                    }
+                }
+                plan.coefficients(&cond)
+            }
+        };
         let lo = c.iter().fold(f64::INFINITY, |m, &x| m.min(x));
         let hi = c.iter().fold(f64::NEG_INFINITY, |m, &x| m.max(x));
         if lo < 0.0 && hi >= 0.0 {
@@ -876,7 +981,8 @@ pub fn hit_exact(
                 return Some(t0 + t + u * len);
             }
         }
-        prev = Some(end);
+        let s = if carry { end_second_derivative(&c, len) } else { 0.0 };
+        prev = Some((end.0, end.1, s, len));
         t = te;
     }
     None
@@ -948,4 +1054,94 @@ pub fn write_png(path: &std::path::Path, width: u32, height: u32, rgba: &[u8]) -
         w.write_image_data(rgba).map_err(std::io::Error::other)?;
     }
     boxforge::build::output::write_atomic(path, &bytes).map_err(|e| std::io::Error::other(e.to_string()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn derive(name: &str) -> Derivation {
+        Derivation::new(&boxforge::spec::catalog::get(name).unwrap()).unwrap()
+    }
+
+    #[test]
+    fn conversions_reproduce_a_polynomial_from_its_conditions() {
+        for name in ["bcc7", "cc_tricubic", "fcc6", "bcc_linear", "bcc8"] {
+            let plan = HitPlan::new(&derive(name));
+            let n = plan.degree;
+            let b: Vec<f64> = (0..=n).map(|j| ((j * 7 + 3) % 5) as f64 - 2.0 + 0.1 * j as f64).collect();
+            let h = 1e-5;
+            let val = |u: f64| bernstein_at(&b, u);
+            let du = |u: f64| (val(u + h) - val(u - h)) / (2.0 * h);
+            let du2 = |u: f64| (val(u + h) - 2.0 * val(u) + val(u - h)) / (h * h);
+            let mut cond = vec![];
+            for &(u, grad) in &plan.samples {
+                cond.push(val(u));
+                if grad {
+                    cond.push(du(u));
+                }
+            }
+            let c = plan.coefficients(&cond);
+            for (x, y) in c.iter().zip(&b) {
+                assert!((x - y).abs() < 1e-6, "{name}: {c:?} vs {b:?}");
+            }
+            if !plan.carried_to_bernstein.is_empty() {
+                let mut cond = vec![val(0.0), du(0.0), du2(0.0)];
+                for &u in &plan.carried_samples {
+                    cond.extend([val(u), du(u)]);
+                }
+                cond.extend([val(1.0), du(1.0)]);
+                let c = plan.coefficients_with(&plan.carried_to_bernstein, &cond);
+                for (x, y) in c.iter().zip(&b) {
+                    assert!((x - y).abs() < 1e-3, "{name} carried: {c:?} vs {b:?}");
+                }
+                let s = end_second_derivative(&b, 2.0);
+                assert!((s - du2(1.0) / 4.0).abs() < 1e-3, "{s} vs {}", du2(1.0) / 4.0);
+            }
+        }
+    }
+
+    #[test]
+    fn first_root_finds_the_first_of_several_roots() {
+        // (u - 0.3)(u - 0.35)(u - 0.8) in Bernstein form via samples.
+        let p = |u: f64| (u - 0.3) * (u - 0.35) * (u - 0.8);
+        let n = 3;
+        let nodes: Vec<f64> = (0..=n).map(|i| i as f64 / n as f64).collect();
+        let m: Vec<Vec<f64>> = nodes.iter().map(|&x| (0..=n).map(|j| bernstein(n, j, x)).collect()).collect();
+        let inv = invert(&m);
+        let v: Vec<f64> = nodes.iter().map(|&x| p(x)).collect();
+        let c: Vec<f64> = inv.iter().map(|r| r.iter().zip(&v).map(|(a, b)| a * b).sum()).collect();
+        let u = first_root(&c, 1e-9).unwrap();
+        assert!((u - 0.3).abs() < 1e-8, "{u}");
+        // Two close roots only: none when the polynomial stays positive.
+        let q = |u: f64| (u - 0.5).powi(2) + 1e-3;
+        let v: Vec<f64> = nodes.iter().map(|&x| q(x)).collect();
+        let c: Vec<f64> = inv.iter().map(|r| r.iter().zip(&v).map(|(a, b)| a * b).sum()).collect();
+        assert_eq!(first_root(&c, 1e-9), None);
+    }
+
+    #[test]
+    fn carried_second_derivatives_give_the_hits_of_fresh_samples() {
+        let d = derive("bcc7");
+        let vol = LatticeVolume::marschner_lobb(&d.filter.lattice, [24; 3]).unwrap();
+        let data = |j: &[i64]| vol.get(j) as f64;
+        let f = |x: DVec3| d.eval_f64(&x.to_array(), &data);
+        let plan = HitPlan::new(&d);
+        assert!(!plan.carried_to_bernstein.is_empty());
+        let fresh = HitPlan { carried_to_bernstein: vec![], ..plan.clone() };
+        let mut hits = 0;
+        for k in 0..40 {
+            let a = 0.3 + 0.05 * k as f64;
+            let dir = DVec3::new(a.cos() * 0.9, a.sin() * 0.9, -0.43).normalize();
+            let origin = DVec3::new(11.5, 11.7, 11.3) - 9.0 * dir;
+            let x = hit_exact(&f, &plan, origin, dir, 0.0, 18.0, 0.5);
+            let y = hit_exact(&f, &fresh, origin, dir, 0.0, 18.0, 0.5);
+            assert_eq!(x.is_some(), y.is_some(), "ray {k}: {x:?} vs {y:?}");
+            if let (Some(x), Some(y)) = (x, y) {
+                assert!((x - y).abs() < 1e-3, "ray {k}: {x} vs {y}");
+                hits += 1;
+            }
+        }
+        assert!(hits > 10, "{hits}");
+    }
 }
