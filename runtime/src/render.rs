@@ -274,7 +274,7 @@ impl HitPlan {
         }
         assert_eq!(m.len(), n + 1, "degree + 1 conditions");
         let (mut carried_samples, mut carried_to_bernstein) = (vec![], vec![]);
-        if d.facts.continuity >= 2 && n >= 4 && n % 2 == 0 {
+        if d.facts.continuity >= 2 && n >= 4 && n.is_multiple_of(2) {
             let k = (n - 4) / 2;
             carried_samples = (1..=k).map(|i| cheb(i, k + 1)).collect();
             let mut rows: Vec<Vec<f64>> = vec![
@@ -369,13 +369,12 @@ fn invert(m: &[Vec<f64>]) -> Vec<Vec<f64>> {
         for v in a[col].iter_mut() {
             *v /= p;
         }
-        for r in 0..n {
-            if r != col {
-                let f = a[r][col];
-                if f != 0.0 {
-                    for c in 0..2 * n {
-                        a[r][c] -= f * a[col][c];
-                    }
+        let pivot = a[col].clone();
+        for (r, row) in a.iter_mut().enumerate() {
+            let f = row[col];
+            if r != col && f != 0.0 {
+                for (x, p) in row.iter_mut().zip(&pivot) {
+                    *x -= f * p;
                 }
             }
         }
@@ -400,11 +399,11 @@ pub fn bernstein_restrict(c: &[f64], u0: f64, u1: f64) -> Vec<f64> {
     let mut b = c.to_vec();
     let mut left = vec![0.0; n + 1];
     left[0] = b[0];
-    for r in 1..=n {
+    for (r, l) in left.iter_mut().enumerate().skip(1) {
         for j in 0..=n - r {
             b[j] = (1.0 - u1) * b[j] + u1 * b[j + 1];
         }
-        left[r] = b[0];
+        *l = b[0];
     }
     let s = u0 / u1;
     let mut out = vec![0.0; n + 1];
