@@ -161,6 +161,10 @@ enum Command {
         /// Ray step in cells.
         #[arg(long, default_value_t = 0.25, allow_negative_numbers = true)]
         step: f32,
+        /// First hit: exact (ray cut at knot planes, Bernstein root isolation: no thin
+        /// feature missed) or fixed steps of --step (default: the faster one on lavapipe).
+        #[arg(long, value_parser = ["exact", "step"], default_value = "step")]
+        hit: String,
         #[arg(long, value_parser = ["embedded", "packed"], default_value = "embedded")]
         layout: String,
         #[arg(long)]
@@ -295,6 +299,7 @@ fn run(cli: Cli) -> Result<(), Failure> {
             perspective,
             no_skip,
             step,
+            hit,
             layout,
             adapter,
             out,
@@ -334,6 +339,7 @@ fn run(cli: Cli) -> Result<(), Failure> {
                 perspective,
                 skip: !no_skip,
                 step,
+                hit: render::HitMode::parse(&hit).expect("clap checked"),
                 progress: true,
                 frames: 1,
                 ..RenderOptions::default()

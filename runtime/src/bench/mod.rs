@@ -5,6 +5,7 @@
 //! is a tie).
 
 pub mod derive;
+pub mod hit;
 pub mod references;
 pub mod stats;
 
@@ -768,6 +769,7 @@ pub fn run_with(
             })?;
             rows.extend(render_rows(name, &format!("render_ml_{size}"), &ms));
         }
+        rows.extend(hit::rows(gpu, &d, &ml, &o.render_sizes, rounds, progress)?);
         snapshot(&rows, &gradient, &[]);
     }
     // bcc7 against bcc8.
