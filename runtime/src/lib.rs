@@ -3,12 +3,14 @@
 //! images out.
 
 pub mod bench;
+pub mod dvr;
 pub mod gpu;
 pub mod prefilter;
 pub mod progress;
 pub mod render;
 pub mod request;
 pub mod scene;
+pub mod transfer;
 pub mod upload;
 pub mod verify;
 pub mod volume;
