@@ -12,7 +12,9 @@
 //! Without pre-integration its colour and opacity are the 1D table's at the
 //! back value with opacity correction alpha = 1 - exp(-tau step) =
 //! 1 - (1 - opacity)^(step / REF_STEP); with pre-integration they are the
-//! table's entry for (front value, back value) (bilinear). Shading
+//! table's entry for (front value, back value) (bilinear) and the normal
+//! comes from the mean of the front and back gradients (the midpoint's to
+//! second order: the back one alone shows the slabs again). Shading
 //! multiplies the premultiplied colour by ambient + diffuse |n.l| and adds
 //! alpha x specular |n.h|^20 (two-sided, the iso renderer's light), mixed
 //! with the unshaded colour by the weight |g|^2 / (|g|^2 + g0^2), g0 = 2% of
@@ -425,22 +427,23 @@ fn cast_ray(
     let mut alpha = 0.0f64;
     if t0 < t1 {
         let nseg = ((t1 - t0) / step).floor() as i64;
-        let mut sf = f(at(t0)).0;
+        let (mut sf, g) = f(at(t0));
+        let mut gf = DVec3::from_slice(&g);
         for k in 0..nseg {
             if alpha >= o.termination as f64 {
                 break;
             }
             let (sb, g) = f(at(t0 + (k + 1) as f64 * step));
-            let seg = match pi {
-                Some(pi) => pi.at(sf, sb),
+            let gb = DVec3::from_slice(&g);
+            let (seg, g) = match pi {
+                Some(pi) => (pi.at(sf, sb), 0.5 * (gf + gb)),
                 None => {
                     let s = table.at(sb);
                     let a = 1.0 - (-s[3] * step).exp();
-                    [s[0] * a, s[1] * a, s[2] * a, a]
+                    ([s[0] * a, s[1] * a, s[2] * a, a], gb)
                 }
             };
             if seg[3] > 0.0 {
-                let g = DVec3::from_slice(&g);
                 let g2 = g.length_squared();
                 let wgt = g2 / (g2 + g0 * g0);
                 let n = g / g2.sqrt().max(1e-20);
@@ -451,7 +454,7 @@ fn cast_ray(
                 acc += (1.0 - alpha) * (c + (lit - c) * wgt);
                 alpha += (1.0 - alpha) * seg[3];
             }
-            sf = sb;
+            (sf, gf) = (sb, gb);
         }
     }
     let color = acc + (1.0 - alpha) * DVec3::from_array(BACKGROUND);

@@ -162,6 +162,30 @@ pub fn check_output_dir(dir: &std::path::Path, flag: &str) -> Result<(), String>
     check_output_file(&dir.join("probe"), flag)
 }
 
+/// `--mode` with `--tf` and `--no-preintegration` of `render`: Some(the
+/// transfer function argument) for `--mode dvr`, None for `iso`.
+pub fn check_render_mode(mode: &str, tf: Option<&str>, no_preintegration: bool) -> Result<Option<String>, String> {
+    match (mode, tf) {
+        ("dvr", Some(tf)) => Ok(Some(tf.to_string())),
+        ("dvr", None) => {
+            Err("--mode dvr needs a transfer function: --tf mni-tissue, --tf marschner-lobb or --tf FILE.json".into())
+        }
+        (_, Some(tf)) => Err(format!("--tf {tf}: a transfer function is for --mode dvr; add --mode dvr")),
+        _ if no_preintegration => Err("--no-preintegration is for --mode dvr; add --mode dvr --tf ...".into()),
+        _ => Ok(None),
+    }
+}
+
+/// A warning (not an error) when the transfer function is transparent over
+/// all of the data's values [lo, hi].
+pub fn tf_warning(table: &crate::transfer::Tf1d, lo: f32, hi: f32) -> Option<String> {
+    table.transparent(lo as f64, hi as f64).then(|| {
+        format!(
+            "warning: the transfer function is transparent over the volume's values [{lo}, {hi}]: the image will be empty"
+        )
+    })
+}
+
 /// A warning (not an error) when the iso-value lies outside the data.
 pub fn iso_warning(iso: f32, lo: f32, hi: f32) -> Option<String> {
     (iso < lo || iso > hi).then(|| {
