@@ -24,9 +24,11 @@
 //!
 //! Skipping: the emitted `<f>_minmax_main` kernel bounds the spline on each
 //! block of B^3 cubes; a block is flagged empty when the transfer function is
-//! transparent over its [min, max] ([`Tf1d::transparent`]). A ray whose
-//! segment starts in a flagged block jumps over the whole segments inside the
-//! block, so the segment grid, and the image, are those of the unskipped ray.
+//! transparent over its [min, max] ([`Tf1d::transparent`]), and skipped
+//! when it and its neighbours within ceil(step / B) blocks are empty
+//! ([`skip_flags`]). A ray whose segment starts in a skipped block jumps over
+//! every segment starting in that block (they end in empty blocks), so the
+//! segment grid, and the image, are those of the unskipped ray.
 
 use crate::gpu::{Gpu, GpuError};
 use crate::render::{ray_params, Frame, RenderOptions};
@@ -169,6 +171,28 @@ pub fn empty_flags(bounds: &[[f32; 2]], table: &Tf1d) -> Vec<u32> {
     bounds.iter().map(|b| table.transparent(b[0] as f64, b[1] as f64) as u32).collect()
 }
 
+/// The skipping flags: a block is skipped when it and every block within
+/// `radius` blocks (Chebyshev distance, clamped at the grid's faces) are
+/// empty; `blocks` is the grid's size, x fastest. With radius
+/// ceil(step / block edge), a segment that starts in a skipped block ends in
+/// empty blocks, so the shader skips every segment starting there.
+pub fn skip_flags(empty: &[u32], blocks: [i32; 3], radius: i32) -> Vec<u32> {
+    let [nx, ny, nz] = blocks.map(|n| n as usize);
+    assert_eq!(empty.len(), nx * ny * nz, "one flag per block");
+    let mut f = empty.to_vec();
+    let r = radius.max(0) as usize;
+    // A separable min filter, one axis at a time.
+    for (n, stride) in [(nx, 1), (ny, nx), (nz, nx * ny)] {
+        let prev = f.clone();
+        for (i, out) in f.iter_mut().enumerate() {
+            let c = (i / stride) % n;
+            let (lo, hi) = (c.saturating_sub(r), (c + r).min(n - 1));
+            *out = (lo..=hi).all(|q| prev[i - c * stride + q * stride] != 0) as u32;
+        }
+    }
+    f
+}
+
 /// A volume ready for DVR on the device: the compiled pipeline, the samples
 /// and the block [min, max] grid (computed once; each [`DvrScene::render`]
 /// takes a transfer function and options).
@@ -249,7 +273,7 @@ impl<'a> DvrScene<'a> {
 
     /// Renders one image (a warm-up frame, then `o.frames` timed frames);
     /// `empty_blocks` is the fraction of blocks the transfer function leaves
-    /// transparent.
+    /// transparent (fewer are skipped: see [`skip_flags`]).
     pub fn render(&self, tf: &TransferFunction, o: &DvrOptions) -> Result<Frame, GpuError> {
         let table = tf.table();
         let pi = if o.preintegrate { Some(table.preintegrate(o.step as f64)) } else { None };
@@ -269,8 +293,10 @@ impl<'a> DvrScene<'a> {
         let o = &DvrOptions { preintegrate: pi.is_some(), ..o.clone() };
         let pi_size = pi.map_or(2, |p| p.size);
         let params = dvr_params(self.d, self.vol, table, pi_size, o);
-        let flags = empty_flags(&self.bounds, table);
-        let empty = flags.iter().filter(|&&f| f != 0).count() as f64 / flags.len().max(1) as f64;
+        let empty_blocks = empty_flags(&self.bounds, table);
+        let empty = empty_blocks.iter().filter(|&&f| f != 0).count() as f64 / empty_blocks.len().max(1) as f64;
+        let radius = (o.step / self.block as f32).ceil() as i32;
+        let flags = skip_flags(&empty_blocks, [params.blocks[0], params.blocks[1], params.blocks[2]], radius);
         let pi_entries: Vec<[f32; 4]> = pi.map_or_else(|| vec![[0.0; 4]; 4], |p| p.entries.clone());
         let pixels = (o.width * o.height) as usize;
         let params_buf = gpu.uniform_buffer("dvr params", bytemuck::bytes_of(&params));

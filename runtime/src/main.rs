@@ -373,7 +373,7 @@ fn run(cli: Cli) -> Result<(), Failure> {
                         preintegrate: !no_preintegration,
                         step,
                         progress: true,
-                        frames: 0,
+                        frames: 1,
                         ..Default::default()
                     };
                     boxforge_runtime::dvr::render(&gpu, &d, &vol, layout, tf, &o)
@@ -385,10 +385,11 @@ fn run(cli: Cli) -> Result<(), Failure> {
                 .map_err(|e| Failure(format!("cannot write {}: {e}", out.display())))?;
             if tf.is_some() {
                 outln!(
-                    "{}: {}x{} volume rendering ({:.0}% of blocks transparent under the transfer function)",
+                    "{}: {}x{} volume rendering in {:.1} ms per frame ({:.0}% of blocks transparent under the transfer function)",
                     out.display(),
                     size,
                     size,
+                    frame.ms_per_frame,
                     frame.empty_blocks * 100.0
                 );
             } else {

@@ -89,6 +89,12 @@ fn tf_aware_skipping_skips_the_air_of_the_head_and_keeps_the_image() {
     assert!(covered(&skip.rgba) > 0.08, "the head is in view ({:.2})", covered(&skip.rgba));
     let e = rms(&skip.rgba, &no_skip.rgba);
     assert!(e < 0.5, "skipping changed the image: RMS {e:.3}/255");
+    // The skipped GPU image against the CPU reference (which never skips), on real data.
+    let small = DvrOptions { width: 40, height: 40, ..o.clone() };
+    let gpu_small = scene.render(&tf, &small).unwrap();
+    let e = rms(&gpu_small.rgba, &cpu_render(&d, &vol, &tf, &small));
+    eprintln!("MNI head, TF skipping: RMS GPU vs CPU {e:.3}/255");
+    assert!(e < 2.0, "MNI head: RMS {e:.2}/255 against the CPU reference");
     // An opaque TF everywhere leaves no block empty.
     let mut opaque = tf.clone();
     opaque.points.iter_mut().for_each(|p| p.opacity = 0.5);
@@ -158,4 +164,37 @@ fn bad_transfer_functions_are_one_clear_line_with_exit_code_2() {
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("--mode dvr"));
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The numbers, printed (not a pass/fail test: timings vary):
+/// `cargo test -p boxforge-runtime --test dvr measure -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn measure_dvr_targets() {
+    let gpu = gpu();
+    let mut o = boxforge_runtime::bench::BenchOptions::full();
+    o.filters = vec!["bcc7".into()];
+    o.runs = 5;
+    for row in boxforge_runtime::bench::dvr::rows(&gpu, &o, o.runs, &|m| eprintln!("{m}")).unwrap() {
+        eprintln!(
+            "{} {} {}: {:.1} ms/frame {} {}",
+            row.filter,
+            row.kind,
+            row.variant,
+            row.ms_per_frame.unwrap(),
+            row.ratio.map(|r| r.display()).unwrap_or_default(),
+            row.baseline.unwrap_or_default()
+        );
+    }
+    let d = derive("bcc7");
+    let vol = LatticeVolume::marschner_lobb(&d.filter.lattice, [40, 40, 40]).unwrap();
+    let scene = DvrScene::new(&gpu, &d, &vol, Layout::Embedded, 4).unwrap();
+    let tf = TransferFunction::preset("marschner-lobb");
+    let q = boxforge_runtime::bench::dvr::quality(
+        &scene,
+        &tf,
+        &DvrOptions { width: 256, height: 256, ..DvrOptions::default() },
+    )
+    .unwrap();
+    eprintln!("Marschner-Lobb bcc7 256^2, step 1.0 against step 0.1: {q:?}");
 }
