@@ -224,6 +224,17 @@ mod tests {
     }
 
     #[test]
+    fn dvr_flags_go_with_mode_dvr() {
+        assert_eq!(check_render_mode("iso", None, false), Ok(None));
+        assert_eq!(check_render_mode("dvr", Some("mni-tissue"), false), Ok(Some("mni-tissue".into())));
+        assert!(check_render_mode("dvr", None, false).unwrap_err().contains("--tf"));
+        assert!(check_render_mode("iso", Some("x.json"), false).unwrap_err().starts_with("--tf x.json"));
+        assert!(check_render_mode("iso", None, true).unwrap_err().starts_with("--no-preintegration"));
+        let t = crate::transfer::TransferFunction::preset("mni-tissue").table();
+        assert!(tf_warning(&t, 0.0, 20.0).is_some() && tf_warning(&t, 0.0, 255.0).is_none());
+    }
+
+    #[test]
     fn limits_are_checked_before_any_upload() {
         let limits = wgpu::Limits::downlevel_defaults();
         assert!(check_image_limits(256, &limits).is_ok());

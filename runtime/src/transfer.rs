@@ -214,7 +214,8 @@ impl Tf1d {
     /// side (so f32 rounding of evaluations and the pre-integration table's
     /// bilinear lookups never reach a non-zero entry from inside).
     pub fn transparent(&self, vmin: f64, vmax: f64) -> bool {
-        if !(vmin <= vmax) {
+        // NaN bounds (or an inverted interval) prove nothing.
+        if vmin.is_nan() || vmax.is_nan() || vmin > vmax {
             return false;
         }
         let n = self.entries.len();
