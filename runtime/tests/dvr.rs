@@ -198,3 +198,32 @@ fn measure_dvr_targets() {
     .unwrap();
     eprintln!("Marschner-Lobb bcc7 256^2, step 1.0 against step 0.1: {q:?}");
 }
+
+#[test]
+fn bench_rows_and_markdown_for_dvr() {
+    let gpu = gpu();
+    let o = boxforge_runtime::bench::BenchOptions::smoke();
+    let rows = boxforge_runtime::bench::dvr::rows(&gpu, &o, 1, &|_| {}).unwrap();
+    assert_eq!(rows.len(), 3, "skipping, no skipping, point-sampled");
+    assert!(rows.iter().all(|r| r.kind.starts_with("dvr_ml_") && r.ms_per_frame.is_some_and(|m| m > 0.0)));
+    assert!(rows[1].ratio.is_some() && rows[2].baseline.as_deref().is_some_and(|b| b.contains("RMS")));
+    let md = boxforge_runtime::bench::dvr::markdown(&rows);
+    assert!(md.contains("### Direct volume rendering") && md.contains("no skipping ÷ TF skipping"), "{md}");
+    assert!(boxforge_runtime::bench::dvr::markdown(&[]).is_empty());
+}
+
+#[test]
+fn a_dvr_render_writes_its_png() {
+    let dir = std::env::temp_dir().join(format!("boxforge-dvr-png-{}", std::process::id()));
+    let out = dir.join("ml.png");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_boxforge"))
+        .args(["render", "--mode", "dvr", "--tf", "marschner-lobb", "--filter", "bcc_linear", "--volume", "ml:16"])
+        .args(["--size", "24", "--out", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let bytes = std::fs::read(&out).unwrap();
+    assert_eq!(&bytes[1..4], b"PNG");
+    assert!(String::from_utf8_lossy(&o.stdout).contains("volume rendering"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
