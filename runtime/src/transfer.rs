@@ -21,6 +21,11 @@
 //! capped at [`MAX_OPACITY`]), so a step of length s gets
 //! alpha' = 1 - exp(-tau s) = 1 - (1 - opacity)^(s / REF_STEP), the usual
 //! opacity correction. A `description` string is allowed and ignored.
+//!
+//! Empty-space skipping treats a block as transparent only when the sampled
+//! table is zero one entry beyond the block's [min, max] on both sides
+//! ([`Tf1d::transparent`]): give the values to be skipped a zero-opacity
+//! stretch (two zero points), not a single zero point where a ramp starts.
 
 use serde::Deserialize;
 

@@ -227,3 +227,42 @@ fn a_dvr_render_writes_its_png() {
     assert!(String::from_utf8_lossy(&o.stdout).contains("volume rendering"));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn skipping_keeps_a_surface_that_starts_right_past_an_empty_block() {
+    // Zero below x = 9, one from x = 9 on: the cubes up to x = 8 are zero, so
+    // the block [4, 8) is transparent while the value rises right past its
+    // face. Segments of 2 cells that start in that block end in the rise: the
+    // skipping must not drop them.
+    let gpu = gpu();
+    let d = derive("cc_trilinear");
+    let n = 24;
+    let data = (0..n * n * n).map(|i| if i % n >= 9 { 1.0 } else { 0.0 }).collect();
+    let vol = LatticeVolume { lattice: d.filter.lattice.clone(), dims: [n, n, n], data };
+    let tf = TransferFunction::parse(
+        r#"{"range": [0, 1], "points": [{"value": 0, "color": [0, 0, 0], "opacity": 0},
+            {"value": 0.1, "color": [0, 0, 0], "opacity": 0}, {"value": 0.3, "color": [1, 0.5, 0.2], "opacity": 0.6}, {"value": 1, "color": [1, 1, 1], "opacity": 0.6}]}"#,
+        "step.json",
+    )
+    .unwrap();
+    let scene = DvrScene::new(&gpu, &d, &vol, Layout::Embedded, 4).unwrap();
+    let o = DvrOptions {
+        width: 48,
+        height: 48,
+        step: 2.0,
+        azimuth: 190.0,
+        elevation: 20.0,
+        frames: 0,
+        ..DvrOptions::default()
+    };
+    for preintegrate in [false, true] {
+        let o = DvrOptions { preintegrate, ..o.clone() };
+        let skip = scene.render(&tf, &o).unwrap();
+        assert!(skip.empty_blocks > 0.2, "{}", skip.empty_blocks);
+        let no_skip = scene.render(&tf, &DvrOptions { skip: false, ..o.clone() }).unwrap();
+        let e = rms(&skip.rgba, &no_skip.rgba);
+        assert!(e < 0.5, "pre-integrated {preintegrate}: skipping changed the image, RMS {e:.2}/255");
+        let e = rms(&skip.rgba, &cpu_render(&d, &vol, &tf, &o));
+        assert!(e < 2.0, "pre-integrated {preintegrate}: RMS {e:.2}/255 against the CPU reference");
+    }
+}
