@@ -50,11 +50,15 @@ pub const BACKGROUND: [f64; 3] = [0.08, 0.08, 0.1];
 /// Options of one DVR image.
 #[derive(Clone, Debug)]
 pub struct DvrOptions {
+    /// Image width in pixels.
     pub width: u32,
+    /// Image height in pixels.
     pub height: u32,
     /// View azimuth and elevation in degrees.
     pub azimuth: f32,
+    /// See `azimuth`.
     pub elevation: f32,
+    /// Perspective (else orthographic) projection, as the iso renderer's.
     pub perspective: bool,
     /// TF-aware empty-space skipping.
     pub skip: bool,
@@ -112,11 +116,17 @@ impl DvrOptions {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct DvrParams {
+    /// Camera, as [`crate::render::RayParams`]: eye position.
     pub eye: [f32; 4],
+    /// View direction.
     pub forward: [f32; 4],
+    /// Half the image's width along the view plane.
     pub right: [f32; 4],
+    /// Half the image's height along the view plane.
     pub up: [f32; 4],
+    /// Valid box (the filter's support inside the volume): low corner.
     pub box_lo: [f32; 4],
+    /// Valid box: high corner.
     pub box_hi: [f32; 4],
     /// Table lo, (n_tf - 1) / (hi - lo), (n_pi - 1) / (hi - lo), step.
     pub tf: [f32; 4],
@@ -288,6 +298,12 @@ impl<'a> DvrScene<'a> {
             return Err(GpuError::Runtime(format!(
                 "the scene's block grid has edge {}, the options ask for {}",
                 self.block, o.block
+            )));
+        }
+        if let Some(p) = pi.filter(|p| p.step != o.step) {
+            return Err(GpuError::Runtime(format!(
+                "the pre-integration table is for step {}, the options ask for step {}",
+                p.step, o.step
             )));
         }
         let o = &DvrOptions { preintegrate: pi.is_some(), ..o.clone() };

@@ -191,7 +191,9 @@ impl TransferFunction {
 /// A transfer function sampled at `entries.len()` values from `lo` to `hi`.
 #[derive(Clone, Debug)]
 pub struct Tf1d {
+    /// The value of the first entry.
     pub lo: f32,
+    /// The value of the last entry.
     pub hi: f32,
     /// (r, g, b, extinction per cell).
     pub entries: Vec<[f32; 4]>,
@@ -292,7 +294,9 @@ impl Tf1d {
 /// A pre-integration table (see [`Tf1d::preintegrate`]).
 #[derive(Clone, Debug)]
 pub struct Preint {
+    /// The value of the first row and column.
     pub lo: f32,
+    /// The value of the last row and column.
     pub hi: f32,
     /// Entries per axis.
     pub size: usize,
