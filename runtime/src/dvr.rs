@@ -517,3 +517,35 @@ pub fn rms(a: &[u8], b: &[u8]) -> f64 {
     }
     (sum / n.max(1) as f64).sqrt()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_uniform_matches_the_template_struct() {
+        // Every field of `<f>_DvrParams` is a vec4 (16 bytes, no padding), in
+        // the order of DvrParams.
+        let t = template("f");
+        let body = t.split("struct f_DvrParams {").nth(1).unwrap().split('}').next().unwrap();
+        let fields: Vec<&str> = body.lines().map(str::trim).filter(|l| !l.is_empty() && !l.starts_with("//")).collect();
+        assert!(fields.iter().all(|f| f.ends_with("vec4<f32>,") || f.ends_with("vec4<i32>,")), "{fields:?}");
+        assert_eq!(fields.len() * 16, std::mem::size_of::<DvrParams>());
+        let names: Vec<&str> = fields.iter().map(|f| f.split(':').next().unwrap()).collect();
+        assert_eq!(
+            names,
+            ["eye", "forward", "right", "up", "box_lo", "box_hi", "tf", "mode", "light", "image", "blocks", "sizes"]
+        );
+    }
+
+    #[test]
+    fn skip_flags_shrink_the_empty_region_by_the_radius() {
+        // 5 x 1 x 1 blocks: empty, empty, full, empty, empty.
+        let empty = [1, 1, 0, 1, 1];
+        assert_eq!(skip_flags(&empty, [5, 1, 1], 0), empty);
+        assert_eq!(skip_flags(&empty, [5, 1, 1], 1), [1, 0, 0, 0, 1]);
+        assert_eq!(skip_flags(&empty, [5, 1, 1], 2), [0, 0, 0, 0, 0]);
+        // Along z in a 1 x 1 x 3 grid, and clamped at the faces.
+        assert_eq!(skip_flags(&[1, 1, 0], [1, 1, 3], 1), [1, 0, 0]);
+    }
+}
