@@ -22,6 +22,10 @@
 //! alpha' = 1 - exp(-tau s) = 1 - (1 - opacity)^(s / REF_STEP), the usual
 //! opacity correction. A `description` string is allowed and ignored.
 //!
+//! Instead of `points`, `"colormap": "file.png"` (relative to the JSON file)
+//! takes the control points from the first row of an RGBA PNG spread evenly
+//! over `range`: RGB the colour, alpha the opacity.
+//!
 //! Empty-space skipping treats a block as transparent only when the sampled
 //! table is zero one entry beyond the block's [min, max] on both sides
 //! ([`Tf1d::transparent`]): give the values to be skipped a zero-opacity
@@ -60,10 +64,52 @@ pub struct ControlPoint {
 #[serde(deny_unknown_fields)]
 struct TfFile {
     range: [f64; 2],
-    points: Vec<ControlPoint>,
+    #[serde(default)]
+    points: Option<Vec<ControlPoint>>,
+    #[serde(default)]
+    colormap: Option<String>,
     #[serde(default)]
     #[allow(dead_code)]
     description: Option<String>,
+}
+
+struct TfFileChecked {
+    range: [f64; 2],
+    points: Vec<ControlPoint>,
+}
+
+/// Control points from a colormap PNG: the first row's pixels, evenly over
+/// `range` (first pixel at lo, last at hi), RGB the colour and alpha the
+/// opacity (8 or 16 bits, grey or RGB, with an alpha channel).
+fn colormap_points(path: &std::path::Path, range: [f64; 2]) -> Result<Vec<ControlPoint>, String> {
+    let bytes =
+        std::fs::read(path).map_err(|e| format!("cannot read it: {e}; check the path (relative to the JSON file)"))?;
+    let mut decoder = png::Decoder::new(std::io::Cursor::new(bytes));
+    decoder.set_transformations(png::Transformations::normalize_to_color8());
+    let mut reader = decoder.read_info().map_err(|e| format!("not a readable PNG ({e})"))?;
+    let mut buf = vec![0u8; reader.output_buffer_size().ok_or("the PNG is too large")?];
+    let info = reader.next_frame(&mut buf).map_err(|e| format!("not a readable PNG ({e})"))?;
+    let channels = match info.color_type {
+        png::ColorType::Rgba => 4,
+        png::ColorType::GrayscaleAlpha => 2,
+        _ => return Err("has no alpha channel: save it as RGBA (alpha = opacity)".into()),
+    };
+    let w = info.width as usize;
+    if w < 2 {
+        return Err(format!("is {w} pixel(s) wide: a colormap needs at least 2 (one row, lo to hi)"));
+    }
+    let row = &buf[..w * channels];
+    Ok((0..w)
+        .map(|i| {
+            let px = &row[i * channels..(i + 1) * channels];
+            let c = |k: usize| px[if channels == 4 { k } else { 0 }] as f64 / 255.0;
+            ControlPoint {
+                value: range[0] + (range[1] - range[0]) * i as f64 / (w - 1) as f64,
+                color: [c(0), c(1), c(2)],
+                opacity: px[channels - 1] as f64 / 255.0,
+            }
+        })
+        .collect())
 }
 
 /// A piecewise-linear 1D transfer function.
@@ -96,7 +142,7 @@ impl TransferFunction {
         let path = std::path::Path::new(arg);
         let is_file_like = arg.ends_with(".json") || arg.contains('/') || arg.contains('\\');
         match std::fs::read_to_string(path) {
-            Ok(text) => TransferFunction::parse(&text, arg),
+            Ok(text) => TransferFunction::parse_in(&text, arg, path.parent()),
             Err(e) if is_file_like || path.exists() => {
                 Err(format!("--tf {arg}: cannot read the transfer function file: {e}; check the path, or {}", usage()))
             }
@@ -111,8 +157,15 @@ impl TransferFunction {
     }
 
     /// Parses and checks the JSON text of a transfer function; `source`
-    /// names it in the (one-line) error.
+    /// names it in the (one-line) error. A `colormap` is read relative to
+    /// the working directory.
     pub fn parse(text: &str, source: &str) -> Result<TransferFunction, String> {
+        TransferFunction::parse_in(text, source, None)
+    }
+
+    /// [`TransferFunction::parse`] with a `colormap` path relative to `dir`
+    /// (the JSON file's folder).
+    pub fn parse_in(text: &str, source: &str, dir: Option<&std::path::Path>) -> Result<TransferFunction, String> {
         let bad = |what: String| format!("--tf {source}: {what}");
         let file: TfFile =
             serde_json::from_str(text).map_err(|e| bad(format!("not a valid transfer function ({e}); {}", usage())))?;
@@ -120,6 +173,23 @@ impl TransferFunction {
         if !(lo.is_finite() && hi.is_finite() && lo < hi) {
             return Err(bad(format!("\"range\" [{lo}, {hi}] must be two finite numbers with lo < hi, e.g. [0, 255]")));
         }
+        let points = match (file.points, &file.colormap) {
+            (Some(p), None) => p,
+            (None, Some(c)) => {
+                let path = dir.map_or_else(|| std::path::PathBuf::from(c), |d| d.join(c));
+                colormap_points(&path, [lo, hi]).map_err(|e| bad(format!("colormap {}: {e}", path.display())))?
+            }
+            (Some(_), Some(_)) => {
+                return Err(bad("give either \"points\" or \"colormap\", not both".into()));
+            }
+            (None, None) => {
+                return Err(bad(format!(
+                    "no \"points\" (or \"colormap\": a PNG whose first row spans \"range\"); {}",
+                    usage()
+                )));
+            }
+        };
+        let file = TfFileChecked { range: file.range, points };
         if file.points.len() < 2 {
             return Err(bad(format!(
                 "{} control point(s): give at least two in \"points\" (values increasing inside \"range\")",
@@ -391,6 +461,26 @@ mod tests {
     }
 
     #[test]
+    fn a_colormap_png_spans_the_range() {
+        let dir = std::env::temp_dir().join(format!("boxforge-tf-cmap-{}", std::process::id()));
+        let rgba = [0u8, 0, 0, 0, 255, 0, 0, 51, 0, 255, 0, 102, 0, 0, 255, 255];
+        crate::render::write_png(&dir.join("cmap.png"), 4, 1, &rgba).unwrap();
+        crate::render::write_png(&dir.join("tall.png"), 1, 4, &rgba).unwrap();
+        let json = dir.join("tf.json");
+        std::fs::write(&json, r#"{"range": [0, 30], "colormap": "cmap.png"}"#).unwrap();
+        let tf = TransferFunction::load(json.to_str().unwrap()).unwrap();
+        assert_eq!(tf.points.len(), 4);
+        assert_eq!(tf.eval(10.0), ([1.0, 0.0, 0.0], 0.2));
+        assert_eq!(tf.eval(30.0), ([0.0, 0.0, 1.0], 1.0));
+        let (c, a) = tf.eval(15.0);
+        assert!((c[0] - 0.5).abs() < 1e-12 && (c[1] - 0.5).abs() < 1e-12 && (a - 0.3).abs() < 1e-12);
+        std::fs::write(&json, r#"{"range": [0, 30], "colormap": "tall.png"}"#).unwrap();
+        let e = TransferFunction::load(json.to_str().unwrap()).unwrap_err();
+        assert!(e.contains("at least 2"), "{e}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
     fn parse_errors_name_the_file_and_the_problem() {
         for (text, fragment) in [
             ("not json", "not a valid transfer function"),
@@ -414,6 +504,13 @@ mod tests {
                 "opacity 1.5",
             ),
             (r#"{"range": [0, 1], "points": [], "colour": 3}"#, "colour"),
+        ] {
+            let e = TransferFunction::parse(text, "x.json").unwrap_err();
+            assert!(e.starts_with("--tf x.json: ") && e.contains(fragment) && !e.contains('\n'), "{e}");
+        }
+        for (text, fragment) in [
+            (r#"{"range": [0, 1], "colormap": "missing.png"}"#, "cannot read"),
+            (r#"{"range": [0, 1], "points": [], "colormap": "x.png"}"#, "not both"),
         ] {
             let e = TransferFunction::parse(text, "x.json").unwrap_err();
             assert!(e.starts_with("--tf x.json: ") && e.contains(fragment) && !e.contains('\n'), "{e}");
