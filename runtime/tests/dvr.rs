@@ -174,7 +174,7 @@ fn measure_dvr_targets() {
     let gpu = gpu();
     let mut o = boxforge_runtime::bench::BenchOptions::full();
     o.filters = vec!["bcc7".into()];
-    o.runs = 5;
+    o.runs = 7;
     for row in boxforge_runtime::bench::dvr::rows(&gpu, &o, o.runs, &|m| eprintln!("{m}")).unwrap() {
         eprintln!(
             "{} {} {}: {:.1} ms/frame {} {}",

@@ -3,7 +3,9 @@
 //! rounds on the MNI head with the `mni-tissue` preset (Marschner-Lobb with
 //! the `marschner-lobb` preset when the run has no MNI head, e.g. smoke),
 //! and the pre-integration quality: RMS of step-1.0 images, with and
-//! without pre-integration, against a step-0.1 point-sampled reference.
+//! without pre-integration, against a step-0.1 point-sampled reference, on
+//! that volume and (with the head) on Marschner-Lobb, whose thin shell shows
+//! slab artifacts.
 
 use super::stats::{median, round_order, Ratio};
 use super::{BenchOptions, BenchRow};
@@ -99,6 +101,17 @@ pub fn rows(gpu: &Gpu, o: &BenchOptions, rounds: usize, progress: &dyn Fn(&str))
     }
     progress(&format!("{name} DVR {what} {size}^2: pre-integration quality (step {STEP} vs {FINE_STEP})"));
     let q = quality(&scene, &tf, &base)?;
+    // Slab artifacts show on a thin shell: the Marschner-Lobb preset on
+    // Marschner-Lobb too, when the timed volume is the head.
+    let ml_q = if what == "ml" {
+        None
+    } else {
+        progress(&format!("{name} DVR Marschner-Lobb {size}^2: pre-integration quality (step {STEP} vs {FINE_STEP})"));
+        let ml = LatticeVolume::marschner_lobb(&d.filter.lattice, [40, 40, 40]).map_err(|x| x.to_string())?;
+        let ml_scene = DvrScene::new(gpu, &d, &ml, Layout::Embedded, 4).map_err(e)?;
+        let ml_o = DvrOptions { azimuth: 30.0, elevation: 25.0, ..base.clone() };
+        Some(quality(&ml_scene, &TransferFunction::preset("marschner-lobb"), &ml_o)?)
+    };
     let skipping = Ratio::of_rates(&ms[1], &ms[0]);
     let preint = Ratio::of_rates(&ms[0], &ms[2]);
     let row = |variant: String, k: usize, ratio: Option<Ratio>, baseline: Option<String>| BenchRow {
@@ -129,8 +142,15 @@ pub fn rows(gpu: &Gpu, o: &BenchOptions, rounds: usize, progress: &dyn Fn(&str))
             2,
             Some(preint),
             Some(format!(
-                "DVR pre-integrated ÷ point-sampled (time); RMS against step {FINE_STEP}: pre-integrated {:.2}/255, point-sampled {:.2}/255",
-                q.preintegrated, q.point_sampled
+                "DVR pre-integrated ÷ point-sampled (time); RMS of step {STEP} against step {FINE_STEP}: pre-integrated {:.2}/255, point-sampled {:.2}/255 ({}){}",
+                q.preintegrated,
+                q.point_sampled,
+                tf.name,
+                ml_q.map(|m| format!(
+                    "; Marschner-Lobb 40^3 (marschner-lobb): pre-integrated {:.2}/255, point-sampled {:.2}/255",
+                    m.preintegrated, m.point_sampled
+                ))
+                .unwrap_or_default()
             )),
         ),
     ])
