@@ -40,6 +40,13 @@ fn gpu_dvr_matches_the_cpu_reference() {
             assert!(e < 2.0, "{name} (pre-integrated: {preintegrate}): RMS {e:.2}/255 against the CPU reference");
         }
     }
+    // The packed layout gives the same image.
+    let d = derive("bcc7");
+    let vol = LatticeVolume::marschner_lobb(&d.filter.lattice, [36, 36, 36]).unwrap();
+    let o = DvrOptions { width: 32, height: 32, frames: 0, ..DvrOptions::default() };
+    let packed = DvrScene::new(&gpu, &d, &vol, Layout::Packed, 4).unwrap().render(&tf, &o).unwrap();
+    let e = rms(&packed.rgba, &cpu_render(&d, &vol, &tf, &o));
+    assert!(e < 2.0, "packed: RMS {e:.2}/255 against the CPU reference");
 }
 
 #[test]
