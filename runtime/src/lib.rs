@@ -3,6 +3,7 @@
 //! images out.
 
 pub mod bench;
+pub mod dvr;
 pub mod gpu;
 pub mod pictures;
 pub mod prefilter;
@@ -10,6 +11,7 @@ pub mod progress;
 pub mod render;
 pub mod request;
 pub mod scene;
+pub mod transfer;
 pub mod upload;
 pub mod verify;
 pub mod volume;

@@ -127,8 +127,17 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
-    /// Render an isosurface to PNG on the GPU.
+    /// Render an isosurface (or, with --mode dvr, a direct volume rendering) to PNG on the GPU.
     Render {
+        /// iso: isosurface; dvr: emission-absorption volume rendering with --tf.
+        #[arg(long, value_parser = ["iso", "dvr"], default_value = "iso")]
+        mode: String,
+        /// Transfer function for --mode dvr: a preset (mni-tissue, marschner-lobb) or a JSON file.
+        #[arg(long)]
+        tf: Option<String>,
+        /// --mode dvr: point-sample the transfer function (opacity-corrected) instead of pre-integrating.
+        #[arg(long)]
+        no_preintegration: bool,
         #[arg(long)]
         filter: String,
         /// `ml:N` (Marschner-Lobb, about N^3 samples), a .nii/.nii.gz file, or a raw file with --raw.
@@ -287,6 +296,9 @@ fn run(cli: Cli) -> Result<(), Failure> {
         }
         Command::Validate { file, entries, json } => validate(&file, &entries, json),
         Command::Render {
+            mode,
+            tf,
+            no_preintegration,
             filter,
             volume,
             raw,
@@ -307,6 +319,11 @@ fn run(cli: Cli) -> Result<(), Failure> {
             let (az, el) = parse_view(&view)?;
             request::check_render_numbers(size, step, iso, az, el).map_err(Failure)?;
             request::check_output_file(&out, "--out").map_err(Failure)?;
+            let dvr = request::check_render_mode(&mode, tf.as_deref(), no_preintegration).map_err(Failure)?;
+            let tf = match &dvr {
+                Some(name) => Some(boxforge_runtime::transfer::TransferFunction::load(name).map_err(Failure)?),
+                None => None,
+            };
             let f = spec::resolve(&filter)?;
             let d = Derivation::new(&f)?;
             if d.facts.dim != 3 {
@@ -325,7 +342,11 @@ fn run(cli: Cli) -> Result<(), Failure> {
             let conversion = if resample { Conversion::Resample } else { Conversion::Subset };
             let vol = scene::load(&volume, raw.as_deref(), &lat, conversion).map_err(|e| Failure(e.to_string()))?;
             let (lo, hi) = vol.data.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
-            if let Some(w) = request::iso_warning(iso, lo, hi) {
+            let warning = match &tf {
+                Some(tf) => request::tf_warning(&tf.table(), lo, hi),
+                None => request::iso_warning(iso, lo, hi),
+            };
+            if let Some(w) = warning {
                 eprintln!("{w}");
             }
             let gpu = Gpu::new(adapter.as_deref()).map_err(|e| Failure(e.to_string()))?;
@@ -346,17 +367,47 @@ fn run(cli: Cli) -> Result<(), Failure> {
             };
             eprintln!("rendering {} ({} samples) with {} on {} ...", volume, vol.samples(), f.name, gpu.describe());
             let layout = Layout::parse(&layout).expect("clap checked");
-            let frame = render::render(&gpu, &d, &vol, layout, &opts).map_err(|e| Failure(e.to_string()))?;
+            let frame = match &tf {
+                Some(tf) => {
+                    let o = boxforge_runtime::dvr::DvrOptions {
+                        width: size,
+                        height: size,
+                        azimuth: az,
+                        elevation: el,
+                        perspective,
+                        skip: !no_skip,
+                        preintegrate: !no_preintegration,
+                        step,
+                        progress: true,
+                        frames: 1,
+                        ..Default::default()
+                    };
+                    boxforge_runtime::dvr::render(&gpu, &d, &vol, layout, tf, &o)
+                }
+                None => render::render(&gpu, &d, &vol, layout, &opts),
+            }
+            .map_err(|e| Failure(e.to_string()))?;
             render::write_png(&out, frame.width, frame.height, &frame.rgba)
                 .map_err(|e| Failure(format!("cannot write {}: {e}", out.display())))?;
-            outln!(
-                "{}: {}x{} in {:.1} ms per frame ({:.0}% of blocks empty)",
-                out.display(),
-                size,
-                size,
-                frame.ms_per_frame,
-                frame.empty_blocks * 100.0
-            );
+            if tf.is_some() {
+                outln!(
+                    "{}: {}x{} volume rendering in {:.1} ms per frame ({:.0}% of blocks transparent under the transfer function)",
+                    out.display(),
+                    size,
+                    size,
+                    frame.ms_per_frame,
+                    frame.empty_blocks * 100.0
+                );
+            } else {
+                outln!(
+                    "{}: {}x{} in {:.1} ms per frame ({:.0}% of blocks empty)",
+                    out.display(),
+                    size,
+                    size,
+                    frame.ms_per_frame,
+                    frame.empty_blocks * 100.0
+                );
+            }
             Ok(())
         }
         Command::Bench {

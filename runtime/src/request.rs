@@ -162,6 +162,30 @@ pub fn check_output_dir(dir: &std::path::Path, flag: &str) -> Result<(), String>
     check_output_file(&dir.join("probe"), flag)
 }
 
+/// `--mode` with `--tf` and `--no-preintegration` of `render`: Some(the
+/// transfer function argument) for `--mode dvr`, None for `iso`.
+pub fn check_render_mode(mode: &str, tf: Option<&str>, no_preintegration: bool) -> Result<Option<String>, String> {
+    match (mode, tf) {
+        ("dvr", Some(tf)) => Ok(Some(tf.to_string())),
+        ("dvr", None) => {
+            Err("--mode dvr needs a transfer function: --tf mni-tissue, --tf marschner-lobb or --tf FILE.json".into())
+        }
+        (_, Some(tf)) => Err(format!("--tf {tf}: a transfer function is for --mode dvr; add --mode dvr")),
+        _ if no_preintegration => Err("--no-preintegration is for --mode dvr; add --mode dvr --tf ...".into()),
+        _ => Ok(None),
+    }
+}
+
+/// A warning (not an error) when the transfer function is transparent over
+/// all of the data's values [lo, hi].
+pub fn tf_warning(table: &crate::transfer::Tf1d, lo: f32, hi: f32) -> Option<String> {
+    table.transparent(lo as f64, hi as f64).then(|| {
+        format!(
+            "warning: the transfer function is transparent over the volume's values [{lo}, {hi}]: the image will be empty"
+        )
+    })
+}
+
 /// A warning (not an error) when the iso-value lies outside the data.
 pub fn iso_warning(iso: f32, lo: f32, hi: f32) -> Option<String> {
     (iso < lo || iso > hi).then(|| {
@@ -197,6 +221,17 @@ mod tests {
         assert!(check_samples([usize::MAX, 2, 2], "v").is_err(), "no overflow");
         assert!(check_samples([64, 64, 64], "v").is_ok());
         assert!(iso_warning(2.0, 0.0, 1.0).is_some() && iso_warning(0.5, 0.0, 1.0).is_none());
+    }
+
+    #[test]
+    fn dvr_flags_go_with_mode_dvr() {
+        assert_eq!(check_render_mode("iso", None, false), Ok(None));
+        assert_eq!(check_render_mode("dvr", Some("mni-tissue"), false), Ok(Some("mni-tissue".into())));
+        assert!(check_render_mode("dvr", None, false).unwrap_err().contains("--tf"));
+        assert!(check_render_mode("iso", Some("x.json"), false).unwrap_err().starts_with("--tf x.json"));
+        assert!(check_render_mode("iso", None, true).unwrap_err().starts_with("--no-preintegration"));
+        let t = crate::transfer::TransferFunction::preset("mni-tissue").table();
+        assert!(tf_warning(&t, 0.0, 20.0).is_some() && tf_warning(&t, 0.0, 255.0).is_none());
     }
 
     #[test]

@@ -5,6 +5,7 @@
 //! is a tie).
 
 pub mod derive;
+pub mod dvr;
 pub mod hit;
 pub mod references;
 pub mod stats;
@@ -851,6 +852,9 @@ pub fn run_with(
             snapshot(&rows, &gradient, &reference_rows);
         }
     }
+    // Direct volume rendering: skipping and pre-integration.
+    rows.extend(dvr::rows(gpu, o, rounds, progress)?);
+    snapshot(&rows, &gradient, &reference_rows);
     let (quality, convergence) = if o.quality { quality(gpu, o, progress)? } else { (vec![], vec![]) };
     let clock = if gpu.timestamps {
         "GPU time of one dispatch from timestamp queries (throughput rows), wall time around submit + wait of one frame after a warm-up frame (render rows)"
@@ -1282,6 +1286,7 @@ pub fn markdown(r: &BenchReport, command: &str) -> String {
             row.baseline.clone().unwrap_or_default()
         );
     }
+    s.push_str(&dvr::markdown(&r.rows));
     let _ = writeln!(s, "\n## Analytic gradient vs central differences (Marschner-Lobb)\n\n| filter | analytic evals/s | central evals/s | speed-up median [min..max] | tie? | analytic angle error (°) | central angle error (°) |\n|---|---|---|---|---|---|---|");
     for g in &r.gradient {
         let (ratio, tie) = ratio_cells(&Some(g.speedup_ratio));
