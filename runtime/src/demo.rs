@@ -3,9 +3,15 @@
 use boxforge::build::output::{generated_files, write_files, ALL_LAYOUTS, ALL_VARIANTS};
 use boxforge::derive::Derivation;
 use boxforge::emit::{Layout, Variant};
+use boxforge_runtime::dvr::DvrOptions;
 use boxforge_runtime::gpu::Gpu;
+use boxforge_runtime::pictures::html::{self, Block};
+use boxforge_runtime::pictures::plots::{self, log_slope, Series};
+use boxforge_runtime::pictures::text::Typeface;
+use boxforge_runtime::pictures::{self, Image, Tile};
 use boxforge_runtime::render::{self, valid_box, RenderOptions};
 use boxforge_runtime::scene::{self, matched_edge, Conversion};
+use boxforge_runtime::transfer::TransferFunction;
 use boxforge_runtime::upload::DeviceVolume;
 use boxforge_runtime::verify::{gpu_eval, Rng};
 use boxforge_runtime::volume::{marschner_lobb, ml_position, LatticeVolume, Volume};
@@ -49,8 +55,16 @@ pub fn run(out: &Path, size: u32, adapter: Option<&str>) -> Result<(), String> {
         .ok_or_else(|| format!("the MNI head data/{MNI_FILE} is missing: run the demo from the repository root"))?;
     let mni = Volume::load_nifti(&mni_path).map_err(|e| format!("{e} (run the demo from the repository root)"))?;
     std::fs::create_dir_all(out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
+    let face = Typeface::dejavu();
+    let mni_tf = TransferFunction::preset("mni-tissue");
     let mut rows = Vec::new();
     let mut images = Vec::new();
+    let mut tiles = Vec::new();
+    let mut closeups = Vec::new();
+    let mut slices = Vec::new();
+    let mut rms_vs_samples = Vec::new();
+    let mut convergence = Vec::new();
+    let mut rates = Vec::new();
     for name in FILTERS {
         steps.step(&format!("{name}: Marschner-Lobb and the MNI head"));
         let d = Derivation::new(&boxforge::spec::catalog::get(name).map_err(|e| e.to_string())?)
@@ -70,6 +84,29 @@ pub fn run(out: &Path, size: u32, adapter: Option<&str>) -> Result<(), String> {
             frame.ms_per_frame,
             ml_png.display()
         ));
+        // A close-up: twice the resolution, the middle quarter.
+        let big = RenderOptions { width: 2 * size, height: 2 * size, frames: 1, ..opts.clone() };
+        let zoom = render::render(&gpu, &d, &ml, Layout::Embedded, &big).map_err(|e| e.to_string())?;
+        let zoom = Image::from_rgba(zoom.width, zoom.height, zoom.rgba).crop_zoom(size / 2, size / 4, size, size, 1);
+        closeups.push(Tile { image: zoom, caption: vec![caption_head(&d), format!("{} samples", ml.samples())] });
+        slices.push((name, error_slice(&gpu, &d, &ml, size)?));
+        // RMS against the analytic function at three budgets (samples per axis on Z^3).
+        let mut curve = Vec::new();
+        for edge in [25.0f64, 33.0, 41.0] {
+            let e = matched_edge(&lat, edge.powi(3));
+            let v = LatticeVolume::marschner_lobb(&lat, [e, e, e]).map_err(|e| e.to_string())?;
+            curve.push((v.samples() as f64, ml_error(&gpu, &d, &v, 20_000)?.0));
+        }
+        rms_vs_samples.push(Series { name: name.to_string(), points: curve });
+        let edges = [12usize, 16, 24];
+        let errs = boxforge_runtime::bench::smooth_convergence(&gpu, &d, &edges)?;
+        let pts: Vec<(f64, f64)> = edges.iter().zip(&errs).map(|(&n, &e)| (2.0 / n as f64, e)).collect();
+        let order = log_slope(&pts).unwrap_or(f64::NAN);
+        convergence.push(Series {
+            name: format!("{name} (order {:.1}, theory {})", order, d.facts.approximation_order),
+            points: pts,
+        });
+        rates.push((name.to_string(), evals_per_second(&gpu, &d, &ml)?));
         images.push(frame);
         // The MNI head at a matched sample count (resampled on BCC/FCC).
         let head = scene::from_cartesian(&mni, &lat, Conversion::Resample).map_err(|e| e.to_string())?;
@@ -86,13 +123,28 @@ pub fn run(out: &Path, size: u32, adapter: Option<&str>) -> Result<(), String> {
         let frame = render::render(&gpu, &d, &head, Layout::Embedded, &opts).map_err(|e| e.to_string())?;
         let mni_png = out.join(format!("mni_{name}.png"));
         render::write_png(&mni_png, frame.width, frame.height, &frame.rgba).map_err(|e| e.to_string())?;
+        let dvr_opts = DvrOptions {
+            width: size,
+            height: size,
+            azimuth: 200.0,
+            elevation: 15.0,
+            step: 1.0,
+            frames: 1,
+            ..Default::default()
+        };
+        let dvr = boxforge_runtime::dvr::render(&gpu, &d, &head, Layout::Embedded, &mni_tf, &dvr_opts)
+            .map_err(|e| e.to_string())?;
+        let dvr_png = out.join(format!("mni_dvr_{name}.png"));
+        render::write_png(&dvr_png, dvr.width, dvr.height, &dvr.rgba).map_err(|e| e.to_string())?;
         steps.println(&format!(
-            "[demo] {name}: MNI head {} samples, {:.1} ms/frame -> {}",
+            "[demo] {name}: MNI head {} samples, {:.1} ms/frame iso, {:.1} ms/frame DVR -> {}, {}",
             head.samples(),
             frame.ms_per_frame,
-            mni_png.display()
+            dvr.ms_per_frame,
+            mni_png.display(),
+            dvr_png.display()
         ));
-        rows.push(Row {
+        let row = Row {
             filter: name.to_string(),
             lattice: lat.name.clone(),
             ml_samples: ml.samples(),
@@ -101,14 +153,127 @@ pub fn run(out: &Path, size: u32, adapter: Option<&str>) -> Result<(), String> {
             ml_ms: images.last().map(|f| f.ms_per_frame).unwrap_or(0.0),
             mni_samples: head.samples(),
             mni_ms: frame.ms_per_frame,
+        };
+        let ml_frame = images.last().expect("pushed above");
+        tiles.push(Tile {
+            image: Image::from_rgba(ml_frame.width, ml_frame.height, ml_frame.rgba.clone()),
+            caption: vec![
+                caption_head(&d),
+                format!("Marschner-Lobb, {} samples", row.ml_samples),
+                format!("RMS {:.4}, max {:.3}", row.rms, row.max_err),
+                format!("{:.1} ms/frame", row.ml_ms),
+            ],
         });
+        tiles.push(Tile {
+            image: Image::from_rgba(frame.width, frame.height, frame.rgba.clone()),
+            caption: vec![
+                caption_head(&d),
+                format!("MNI head, iso {MNI_ISO}, {} samples", row.mni_samples),
+                String::new(),
+                format!("{:.1} ms/frame", row.mni_ms),
+            ],
+        });
+        tiles.push(Tile {
+            image: Image::from_rgba(dvr.width, dvr.height, dvr.rgba),
+            caption: vec![
+                caption_head(&d),
+                "MNI head, DVR (mni-tissue)".into(),
+                "pre-integrated, step 1.0".into(),
+                format!("{:.1} ms/frame", dvr.ms_per_frame),
+            ],
+        });
+        rows.push(row);
         images.push(frame);
     }
     steps.finish();
-    // Contact sheet: one column per filter, Marschner-Lobb above the head.
+    // Contact sheet (plain): one column per filter, Marschner-Lobb above the head.
     let sheet = contact_sheet(&images, FILTERS.len(), size);
     let sheet_png = out.join("contact_sheet.png");
     render::write_png(&sheet_png, size * FILTERS.len() as u32, size * 2, &sheet).map_err(|e| e.to_string())?;
+    // Pictures with words: labelled sheet, close-ups, error slices, plots, the page.
+    let adapter = gpu.describe();
+    let labelled = pictures::contact_sheet(
+        &face,
+        &format!("boxforge: four filters at matched sample counts ({adapter})"),
+        &tiles,
+        3,
+    );
+    pictures::write_png(&out.join("contact_sheet_labelled.png"), &labelled).map_err(|e| e.to_string())?;
+    let close = pictures::contact_sheet(&face, "Marschner-Lobb close-up (2x, centre)", &closeups, FILTERS.len());
+    pictures::write_png(&out.join("closeup.png"), &close).map_err(|e| e.to_string())?;
+    // Error slices on one colour scale so the filters compare.
+    let max = slices.iter().flat_map(|(_, s)| s.values.iter().copied()).fold(0f64, f64::max);
+    let mut error_tiles = Vec::new();
+    for (name, s) in &slices {
+        let img = pictures::error_image(&face, &s.values, s.width, s.width, max, "|f - ML|");
+        pictures::write_png(&out.join(format!("error_{name}.png")), &img).map_err(|e| e.to_string())?;
+        error_tiles.push(Tile { image: img, caption: vec![name.to_string(), format!("slice z = {:.1}", s.z)] });
+    }
+    let errors = pictures::contact_sheet(
+        &face,
+        "|reconstruction - analytic Marschner-Lobb| on the middle slice",
+        &error_tiles,
+        FILTERS.len(),
+    );
+    pictures::write_png(&out.join("errors.png"), &errors).map_err(|e| e.to_string())?;
+    let plot_rms = plots::log_log("RMS error vs samples (Marschner-Lobb)", "samples", "RMS error", &rms_vs_samples)?;
+    let plot_conv =
+        plots::log_log("Convergence on a smooth signal (prefiltered)", "sample spacing h", "RMS error", &convergence)?;
+    let plot_rate = plots::bars(&format!("evals/s on {adapter}"), "evals/s", &rates)?;
+    for (f, svg) in [("plot_rms.svg", &plot_rms), ("plot_convergence.svg", &plot_conv), ("plot_evals.svg", &plot_rate)]
+    {
+        std::fs::write(out.join(f), svg).map_err(|e| format!("cannot write {}: {e}", out.join(f).display()))?;
+    }
+    let table = Block::Table {
+        header: [
+            "filter",
+            "lattice",
+            "ML samples",
+            "RMS (1e5 points)",
+            "max error",
+            "ms/frame ML",
+            "MNI samples",
+            "ms/frame MNI",
+        ]
+        .map(String::from)
+        .to_vec(),
+        rows: rows
+            .iter()
+            .map(|r| {
+                vec![
+                    r.filter.clone(),
+                    r.lattice.clone(),
+                    r.ml_samples.to_string(),
+                    format!("{:.5}", r.rms),
+                    format!("{:.4}", r.max_err),
+                    format!("{:.1}", r.ml_ms),
+                    r.mni_samples.to_string(),
+                    format!("{:.1}", r.mni_ms),
+                ]
+            })
+            .collect(),
+    };
+    let page = html::page(
+        "boxforge demo",
+        &[
+            Block::Paragraph(format!(
+                "Generated shaders of four box splines, rendered on {adapter} at matched sample counts. Timings are from this run \
+                 (one frame after a warm-up); docs/BENCHMARKS.md has the interleaved benchmark ratios."
+            )),
+            Block::Heading("Renders".into()),
+            Block::Image { src: "contact_sheet_labelled.png".into(), caption: "Marschner-Lobb, MNI head (iso and DVR)".into() },
+            Block::Image { src: "closeup.png".into(), caption: "Marschner-Lobb close-up".into() },
+            Block::Heading("Error".into()),
+            Block::Image { src: "errors.png".into(), caption: "|reconstruction - analytic| on the middle slice, one scale".into() },
+            Block::Heading("Quality".into()),
+            table,
+            Block::Heading("Plots".into()),
+            Block::Svg(plot_rms),
+            Block::Svg(plot_conv),
+            Block::Svg(plot_rate),
+        ],
+    );
+    std::fs::write(out.join("index.html"), page).map_err(|e| format!("cannot write index.html: {e}"))?;
     outln!("\n| filter | lattice | ML samples | RMS error (ML, 1e5 points) | max error | ms/frame ML {size}^2 | MNI samples | ms/frame MNI {size}^2 |");
     outln!("|---|---|---|---|---|---|---|---|");
     for r in &rows {
@@ -125,7 +290,7 @@ pub fn run(out: &Path, size: u32, adapter: Option<&str>) -> Result<(), String> {
         );
     }
     outln!(
-        "\nImages: {} (ml_*.png, mni_*.png, contact_sheet.png) on {}; total {:.1} s",
+        "\nImages and page: {} (index.html, contact_sheet_labelled.png, closeup.png, errors.png, ml_*.png, mni_*.png, mni_dvr_*.png, plot_*.svg) on {}; total {:.1} s",
         out.display(),
         gpu.describe(),
         started.elapsed().as_secs_f64()
@@ -174,4 +339,48 @@ fn contact_sheet(frames: &[render::Frame], columns: usize, size: u32) -> Vec<u8>
         }
     }
     out
+}
+
+/// "bcc7 (bcc)": the filter and its lattice, for captions.
+fn caption_head(d: &Derivation) -> String {
+    format!("{} ({})", d.filter.name, d.filter.lattice.name)
+}
+
+/// |spline - analytic| on a square grid over the middle z slice of the valid box.
+struct Slice {
+    width: u32,
+    z: f32,
+    values: Vec<f64>,
+}
+
+fn error_slice(gpu: &Gpu, d: &Derivation, ml: &LatticeVolume, size: u32) -> Result<Slice, String> {
+    let (lo, hi) = valid_box(d, ml);
+    let n = (size / 2).max(16);
+    let z = 0.5 * (lo[2] + hi[2]);
+    let pts: Vec<[f32; 4]> = (0..n * n)
+        .map(|i| {
+            let (x, y) = ((i % n) as f32 + 0.5, (i / n) as f32 + 0.5);
+            [lo[0] + x / n as f32 * (hi[0] - lo[0]), hi[1] - y / n as f32 * (hi[1] - lo[1]), z, 0.0]
+        })
+        .collect();
+    let dv = DeviceVolume::new(gpu, ml, Layout::Embedded).map_err(|e| e.to_string())?;
+    let (values, _) = gpu_eval(gpu, d, &dv, Variant::Fast, &pts).map_err(|e| e.to_string())?;
+    let values = pts
+        .iter()
+        .zip(&values)
+        .map(|(p, v)| (*v as f64 - marschner_lobb(ml_position(ml.dims, [p[0] as f64, p[1] as f64, p[2] as f64]))).abs())
+        .collect();
+    Ok(Slice { width: n, z, values })
+}
+
+/// evals/s of `<f>_eval` at 2^18 random points of the volume: the median of
+/// three timed dispatches after a warm-up (a figure for the plot; the
+/// benchmark's interleaved ratios are in docs/BENCHMARKS.md).
+fn evals_per_second(gpu: &Gpu, d: &Derivation, vol: &LatticeVolume) -> Result<f64, String> {
+    let pts = boxforge_runtime::verify::random_points(d, vol, 1 << 18, 5);
+    let dv = DeviceVolume::new(gpu, vol, Layout::Embedded).map_err(|e| e.to_string())?;
+    let rates = boxforge_runtime::bench::eval_rates(gpu, d, &dv, &pts, 3)?;
+    let mut r = rates;
+    r.sort_by(f64::total_cmp);
+    Ok(r[r.len() / 2])
 }

@@ -1072,56 +1072,10 @@ fn quality(
                 });
             }
         }
-        // Convergence on a smooth signal (prefiltered): f = cos(1.5x) cos(y) cos(0.5z) on [-1,1]^3.
         progress(&format!("{name} convergence"));
-        let smooth = |x: [f64; 3]| (1.5 * x[0]).cos() * x[1].cos() * (0.5 * x[2]).cos();
         let edges: Vec<usize> = vec![16, 24, 32];
-        let mut errs = Vec::new();
-        let mut hs = Vec::new();
-        for &n in &edges {
-            let r = crate::verify::support_radius(&d);
-            let dims = [n + 2 * r + 2; 3];
-            // Map the inner n cells onto [-1,1]: x = -1 + 2 (j - r - 1) / n.
-            let off = (r + 1) as f64;
-            let to_x = |j: [f64; 3]| [0, 1, 2].map(|i| -1.0 + 2.0 * (j[i] - off) / n as f64);
-            let mut v =
-                LatticeVolume { lattice: d.filter.lattice.clone(), dims, data: vec![0.0; dims[0] * dims[1] * dims[2]] };
-            for z in 0..dims[2] {
-                for y in 0..dims[1] {
-                    for x in 0..dims[0] {
-                        if v.is_lattice(&[x as i64, y as i64, z as i64]) {
-                            v.data[x + dims[0] * (y + dims[1] * z)] =
-                                smooth(to_x([x as f64, y as f64, z as f64])) as f32;
-                        }
-                    }
-                }
-            }
-            let v = prefilter_cpu(&d, &v);
-            let mut rng = Rng(3);
-            let pts: Vec<[f32; 4]> = (0..4000)
-                .map(|_| {
-                    let mut p = [0f32; 4];
-                    for pi in p.iter_mut().take(3) {
-                        *pi = (off + 0.25 * n as f64 + rng.next_f64() * 0.5 * n as f64) as f32;
-                    }
-                    p
-                })
-                .collect();
-            let dv = DeviceVolume::new(gpu, &v, Layout::Embedded).map_err(|x| x.to_string())?;
-            let (vals, _) = crate::verify::gpu_eval(gpu, &d, &dv, Variant::Fast, &pts).map_err(|x| x.to_string())?;
-            let rms = (pts
-                .iter()
-                .zip(&vals)
-                .map(|(p, val)| {
-                    let e = *val as f64 - smooth(to_x([p[0] as f64, p[1] as f64, p[2] as f64]));
-                    e * e
-                })
-                .sum::<f64>()
-                / pts.len() as f64)
-                .sqrt();
-            errs.push(rms);
-            hs.push(1.0 / n as f64);
-        }
+        let errs = smooth_convergence(gpu, &d, &edges)?;
+        let hs: Vec<f64> = edges.iter().map(|&n| 1.0 / n as f64).collect();
         let k = errs.len() - 1;
         let order = (errs[k - 1] / errs[k]).ln() / (hs[k - 1] / hs[k]).ln();
         conv.push(ConvergenceRow {
@@ -1133,6 +1087,84 @@ fn quality(
         });
     }
     Ok((q, conv))
+}
+
+/// evals/s of the default module's `<f>_eval` on `dv` at `points`, one rate
+/// per round (`rounds` timed dispatches after a warm-up).
+///
+/// # Errors
+///
+/// Emission or device errors, as a message.
+pub fn eval_rates(
+    gpu: &Gpu,
+    d: &Derivation,
+    dv: &DeviceVolume,
+    points: &[[f32; 4]],
+    rounds: usize,
+) -> Result<Vec<f64>, String> {
+    let name = &d.filter.name;
+    let m =
+        emit(d, &EmitOptions { layout: dv.layout, kernels: false, ..Default::default() }).map_err(|e| e.to_string())?;
+    let src = program(&m.source, "", &format!("vec4<f32>({name}_eval(p), 0.0, 0.0, 0.0)"));
+    let job = Job::new(gpu, &src, &m.file_name, dv, points).map_err(|e| e.to_string())?;
+    let rates = timed_rounds(gpu, &[&job], rounds.max(1)).map_err(|e| e.to_string())?;
+    Ok(rates.into_iter().next().unwrap_or_default())
+}
+
+/// RMS error of the prefiltered spline against the smooth signal
+/// f = cos(1.5x) cos(y) cos(0.5z) on [-1,1]^3 sampled with n cells per unit
+/// length 2, for each n in `edges` (4000 points in the central half): the
+/// convergence curve whose slope is the measured approximation order.
+///
+/// # Errors
+///
+/// Device errors, as a message.
+pub fn smooth_convergence(gpu: &Gpu, d: &Derivation, edges: &[usize]) -> Result<Vec<f64>, String> {
+    let smooth = |x: [f64; 3]| (1.5 * x[0]).cos() * x[1].cos() * (0.5 * x[2]).cos();
+    let mut errs = Vec::new();
+    for &n in edges {
+        let r = crate::verify::support_radius(d);
+        let dims = [n + 2 * r + 2; 3];
+        // Map the inner n cells onto [-1,1]: x = -1 + 2 (j - r - 1) / n.
+        let off = (r + 1) as f64;
+        let to_x = |j: [f64; 3]| [0, 1, 2].map(|i| -1.0 + 2.0 * (j[i] - off) / n as f64);
+        let mut v =
+            LatticeVolume { lattice: d.filter.lattice.clone(), dims, data: vec![0.0; dims[0] * dims[1] * dims[2]] };
+        for z in 0..dims[2] {
+            for y in 0..dims[1] {
+                for x in 0..dims[0] {
+                    if v.is_lattice(&[x as i64, y as i64, z as i64]) {
+                        v.data[x + dims[0] * (y + dims[1] * z)] = smooth(to_x([x as f64, y as f64, z as f64])) as f32;
+                    }
+                }
+            }
+        }
+        let v = prefilter_cpu(d, &v);
+        let mut rng = Rng(3);
+        let pts: Vec<[f32; 4]> = (0..4000)
+            .map(|_| {
+                let mut p = [0f32; 4];
+                for pi in p.iter_mut().take(3) {
+                    *pi = (off + 0.25 * n as f64 + rng.next_f64() * 0.5 * n as f64) as f32;
+                }
+                p
+            })
+            .collect();
+        let dv = DeviceVolume::new(gpu, &v, Layout::Embedded).map_err(|x| x.to_string())?;
+        let (vals, _) = crate::verify::gpu_eval(gpu, d, &dv, Variant::Fast, &pts).map_err(|x| x.to_string())?;
+        let rms = (pts
+            .iter()
+            .zip(&vals)
+            .map(|(p, val)| {
+                let e = *val as f64 - smooth(to_x([p[0] as f64, p[1] as f64, p[2] as f64]));
+                e * e
+            })
+            .sum::<f64>()
+            / pts.len() as f64)
+            .sqrt();
+        errs.push(rms);
+    }
+    Ok(errs)
 }
 
 /// CPU model, cores, OS and architecture.
