@@ -112,7 +112,10 @@ pub fn contact_sheet(face: &Typeface, title: &str, tiles: &[Tile], columns: usiz
     let width = columns as u32 * (tile_w + pad) + pad;
     let height = title_h + rows * (tile_h + caption_h + pad);
     let mut sheet = Image::filled(width, height, BACKGROUND);
-    face.draw(&mut sheet, pad as f32, pad as f32, title_px, title, INK);
+    // A long title is set smaller so it fits the sheet.
+    let room = (width - 2 * pad) as f32;
+    let fitted = title_px * (room / face.width(title_px, title).max(1.0)).min(1.0);
+    face.draw(&mut sheet, pad as f32, pad as f32 + (title_px - fitted) / 2.0, fitted, title, INK);
     for (i, t) in tiles.iter().enumerate() {
         let (col, row) = ((i % columns) as u32, (i / columns) as u32);
         let x = pad + col * (tile_w + pad);
