@@ -38,7 +38,6 @@ use crate::volume::LatticeVolume;
 use boxforge::derive::Derivation;
 use boxforge::emit::{emit, EmitOptions, Layout};
 use glam::{DVec3, Vec3};
-use std::time::Instant;
 
 /// Ambient, diffuse and specular weights of the shading.
 pub const LIGHT: [f32; 3] = [0.35, 0.65, 0.25];
@@ -331,40 +330,15 @@ impl<'a> DvrScene<'a> {
                 wgpu::BindGroupEntry { binding: 4, resource: pi_buf.as_entire_binding() },
             ],
         });
-        let band = if o.progress { 16u32 } else { o.height };
-        let frame = |report: bool| -> Result<f64, GpuError> {
-            let start = Instant::now();
-            let bar = if report {
-                crate::progress::bar(o.height as u64, "volume rendering rows")
-            } else {
-                indicatif::ProgressBar::hidden()
-            };
-            let mut y0 = 0u32;
-            while y0 < o.height {
-                let rows = band.min(o.height - y0);
-                let mut p = params;
-                p.image[3] = y0 as i32;
-                gpu.queue.write_buffer(&params_buf, 0, bytemuck::bytes_of(&p));
-                let mut enc = dev.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("dvr") });
-                {
-                    let mut pass =
-                        enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: None, timestamp_writes: None });
-                    pass.set_pipeline(&self.pipeline);
-                    pass.set_bind_group(0, &self.bg_s, &[]);
-                    pass.set_bind_group(1, &bg_rc, &[]);
-                    pass.dispatch_workgroups(o.width.div_ceil(8), rows.div_ceil(8), 1);
-                }
-                gpu.queue.submit([enc.finish()]);
-                gpu.wait()?;
-                y0 += rows;
-                bar.set_position(y0 as u64);
-            }
-            bar.finish_and_clear();
-            Ok(start.elapsed().as_secs_f64() * 1e3)
-        };
-        gpu.checked("dvr warm-up", || frame(o.progress))??;
-        let mut times: Vec<f64> = (0..o.frames).map(|_| frame(false)).collect::<Result<_, _>>()?;
-        times.sort_by(|a, b| a.total_cmp(b));
+        let times = crate::render::timed_banded_frames(
+            gpu,
+            &self.pipeline,
+            [&self.bg_s, &bg_rc],
+            (&params_buf, params, |p: &mut DvrParams, y0| p.image[3] = y0 as i32),
+            (o.width, o.height, if o.progress { 16 } else { o.height }),
+            ("dvr", "volume rendering rows", o.progress),
+            o.frames,
+        )?;
         let words: Vec<u32> = bytemuck::cast_slice(&gpu.read_buffer(&image)?).to_vec();
         let rgba = words.iter().flat_map(|w| w.to_le_bytes()).collect();
         let ms = if times.is_empty() { f64::NAN } else { times[times.len() / 2] };
