@@ -28,28 +28,7 @@ impl DeviceVolume {
         match layout {
             Layout::Embedded => {
                 let [nx, ny, nz] = v.dims;
-                let tex = gpu.checked("upload embedded texture", || {
-                    gpu.device.create_texture_with_data(
-                        &gpu.queue,
-                        &wgpu::TextureDescriptor {
-                            label: Some("samples"),
-                            size: wgpu::Extent3d {
-                                width: nx as u32,
-                                height: ny as u32,
-                                depth_or_array_layers: nz as u32,
-                            },
-                            mip_level_count: 1,
-                            sample_count: 1,
-                            dimension: wgpu::TextureDimension::D3,
-                            format: wgpu::TextureFormat::R32Float,
-                            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-                            view_formats: &[],
-                        },
-                        wgpu::util::TextureDataOrder::LayerMajor,
-                        bytemuck::cast_slice(&v.data),
-                    )
-                })?;
-                let view = tex.create_view(&wgpu::TextureViewDescriptor::default());
+                let view = r32_texture_3d(gpu, "embedded samples", [nx as u32, ny as u32, nz as u32], &v.data)?;
                 Ok(DeviceVolume {
                     layout,
                     texture_view: Some(view),
@@ -100,28 +79,8 @@ impl DeviceVolume {
                     grid[0], grid[1], grid[2], depth
                 )));
             }
-            let tex = gpu.checked("upload coset slabs", || {
-                gpu.device.create_texture_with_data(
-                    &gpu.queue,
-                    &wgpu::TextureDescriptor {
-                        label: Some("coset slabs"),
-                        size: wgpu::Extent3d {
-                            width: grid[0] as u32,
-                            height: grid[1] as u32,
-                            depth_or_array_layers: depth as u32,
-                        },
-                        mip_level_count: 1,
-                        sample_count: 1,
-                        dimension: wgpu::TextureDimension::D3,
-                        format: wgpu::TextureFormat::R32Float,
-                        usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-                        view_formats: &[],
-                    },
-                    wgpu::util::TextureDataOrder::LayerMajor,
-                    bytemuck::cast_slice(&words),
-                )
-            })?;
-            dv.texture_view = Some(tex.create_view(&wgpu::TextureViewDescriptor::default()));
+            dv.texture_view =
+                Some(r32_texture_3d(gpu, "coset slabs", [grid[0] as u32, grid[1] as u32, depth as u32], &words)?);
             dv.bytes += words.len() * 4;
         }
         Ok(dv)
@@ -136,23 +95,9 @@ impl DeviceVolume {
     pub fn layout_entries(&self, first: u32, visibility: wgpu::ShaderStages) -> Vec<wgpu::BindGroupLayoutEntry> {
         match self.layout {
             Layout::Embedded => {
-                let mut e = vec![wgpu::BindGroupLayoutEntry {
-                    binding: first,
-                    visibility,
-                    ty: wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Float { filterable: self.filtered() },
-                        view_dimension: wgpu::TextureViewDimension::D3,
-                        multisampled: false,
-                    },
-                    count: None,
-                }];
+                let mut e = vec![texture_3d_entry(first, visibility, self.filtered())];
                 if self.filtered() {
-                    e.push(wgpu::BindGroupLayoutEntry {
-                        binding: first + 4,
-                        visibility,
-                        ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
-                        count: None,
-                    });
+                    e.push(sampler_entry(first + 4, visibility));
                 }
                 e
             }
@@ -180,22 +125,8 @@ impl DeviceVolume {
                     },
                 ];
                 if self.filtered() {
-                    e.push(wgpu::BindGroupLayoutEntry {
-                        binding: first + 4,
-                        visibility,
-                        ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
-                        count: None,
-                    });
-                    e.push(wgpu::BindGroupLayoutEntry {
-                        binding: first + 5,
-                        visibility,
-                        ty: wgpu::BindingType::Texture {
-                            sample_type: wgpu::TextureSampleType::Float { filterable: true },
-                            view_dimension: wgpu::TextureViewDimension::D3,
-                            multisampled: false,
-                        },
-                        count: None,
-                    });
+                    e.push(sampler_entry(first + 4, visibility));
+                    e.push(texture_3d_entry(first + 5, visibility, true));
                 }
                 e
             }
@@ -231,6 +162,52 @@ impl DeviceVolume {
             }
         }
     }
+}
+
+/// A 3D float texture binding (filterable for hardware linear fetches).
+fn texture_3d_entry(binding: u32, visibility: wgpu::ShaderStages, filterable: bool) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility,
+        ty: wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Float { filterable },
+            view_dimension: wgpu::TextureViewDimension::D3,
+            multisampled: false,
+        },
+        count: None,
+    }
+}
+
+/// A filtering sampler binding.
+fn sampler_entry(binding: u32, visibility: wgpu::ShaderStages) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility,
+        ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+        count: None,
+    }
+}
+
+/// An R32Float 3D texture of `size` texels filled with `data` (x fastest).
+fn r32_texture_3d(gpu: &Gpu, label: &str, size: [u32; 3], data: &[f32]) -> Result<wgpu::TextureView, GpuError> {
+    let tex = gpu.checked(&format!("upload {label}"), || {
+        gpu.device.create_texture_with_data(
+            &gpu.queue,
+            &wgpu::TextureDescriptor {
+                label: Some(label),
+                size: wgpu::Extent3d { width: size[0], height: size[1], depth_or_array_layers: size[2] },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D3,
+                format: wgpu::TextureFormat::R32Float,
+                usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+                view_formats: &[],
+            },
+            wgpu::util::TextureDataOrder::LayerMajor,
+            bytemuck::cast_slice(data),
+        )
+    })?;
+    Ok(tex.create_view(&wgpu::TextureViewDescriptor::default()))
 }
 
 /// A linear-filtering, clamp-to-edge sampler (hardware trilinear fetches).
