@@ -23,6 +23,8 @@
 // The exact numeric code indexes several parallel arrays (coordinates,
 // rows, planes) by one loop variable; iterator chains would hide that.
 #![allow(clippy::needless_range_loop)]
+// Every public item carries rustdoc (issue #9); `-D warnings` keeps it so.
+#![warn(missing_docs)]
 
 pub mod build;
 pub mod derive;

@@ -11,28 +11,52 @@ use std::fmt::Write;
 /// Everything `inspect` shows about one filter and `generate` writes next to its shaders.
 #[derive(Serialize)]
 pub struct Report {
+    /// Filter name (the prefix of the WGSL identifiers).
     pub name: String,
+    /// Free-text description from the spec.
     pub description: String,
+    /// Dimension s of the lattice and the directions.
     pub dimension: usize,
+    /// Lattice name: a built-in name or `custom`.
     pub lattice: String,
+    /// Generator columns of the lattice, as given.
     pub lattice_generators: Vec<IVec>,
+    /// |det G|: integer points per lattice point.
     pub lattice_det: i64,
+    /// The direction vectors, as given.
     pub directions: Vec<IVec>,
+    /// Polynomial degree of the pieces: directions minus dimension.
     pub degree: usize,
+    /// Approximation order: the fewest directions off any knot hyperplane.
     pub approximation_order: usize,
+    /// Continuity C^k: approximation order - 2; -1 means discontinuous.
     pub continuity: i64,
+    /// Volume of the support: the sum of |det| over every s-subset of directions.
     pub support_volume: i64,
+    /// The knot-plane families n . x in offset + period Z.
     pub knot_planes: Vec<KnotFamily>,
+    /// Grid offset o: the cubes are o + z + `[0,1]^s`.
     pub grid_offset: QVec,
+    /// Number of cube classes (classes of Z^s / L, i.e. |det G|).
     pub cube_classes: usize,
+    /// Integer lower corner z of each class's representative cube.
     pub cube_class_corners: Vec<IVec>,
+    /// Number of cells the knot planes cut the representative cubes into.
     pub cells_per_fundamental_domain: usize,
+    /// Regions of the knot-plane arrangement alone per fundamental domain
+    /// (cells merged across grid faces that are not knot planes).
     pub polynomial_pieces_per_fundamental_domain: usize,
+    /// Order of the symmetry group used to fold cells onto reference pieces.
     pub symmetry_order: usize,
+    /// One entry per orbit of cells under the symmetry group.
     pub reference_pieces: Vec<ReferenceReport>,
+    /// Largest stencil (samples per evaluation) of any reference piece.
     pub max_stencil_size: usize,
+    /// The non-zero quasi-interpolation prefilter weights, by lattice point.
     pub prefilter: Vec<Weight>,
+    /// Shells (orbits, origin included) the prefilter needed.
     pub prefilter_shells: usize,
+    /// Every evaluation cell with its map onto its reference piece.
     pub cells: Vec<CellReport>,
     /// How the fast shaders locate points, and their fetch order.
     pub evaluation: EvaluationReport,
@@ -59,6 +83,7 @@ pub const DETAIL_LIMIT_POLYNOMIALS: usize = 4096;
 /// How big the derivation was expected to be and was.
 #[derive(Clone, Debug, Serialize)]
 pub struct WorkReport {
+    /// The estimate the derivation was admitted on (before the cells were cut).
     pub estimate: crate::derive::Estimate,
     /// Reference pieces x their stencils, as derived.
     pub polynomials: usize,
@@ -73,11 +98,17 @@ pub struct WorkReport {
 /// random data in [0, 1].
 #[derive(Clone, Debug, Serialize)]
 pub struct LinearFetchReport {
+    /// Hardware-filtered fetches per evaluation: ceil(n_i / 2) per axis.
     pub fetches: usize,
+    /// Exact loads per evaluation the filtered fetches replace.
     pub exact_loads: usize,
+    /// Number of seeded random points the errors are measured at.
     pub points: usize,
+    /// Largest absolute error against the exact evaluator with unrounded weights.
     pub max_error_float_weights: f64,
+    /// Largest absolute error with weights rounded to 8 fractional bits.
     pub max_error_8bit_weights: f64,
+    /// RMS error with weights rounded to 8 fractional bits.
     pub rms_error_8bit_weights: f64,
 }
 
@@ -87,12 +118,19 @@ pub struct LinearFetchReport {
 /// emulation of the interpolation as for [`LinearFetchReport`].
 #[derive(Clone, Debug, Serialize)]
 pub struct PackedLinearFetchReport {
+    /// Hardware-filtered fetches per evaluation: the most any used reference needs.
     pub fetches: usize,
+    /// Exact loads per evaluation (the plan's fetches) they replace.
     pub exact_loads: usize,
+    /// How the non-negativity of every fetch weight was established.
     pub non_negative: crate::emit::linear::NonNegativity,
+    /// Number of seeded random points the errors are measured at.
     pub points: usize,
+    /// Largest absolute error against the exact evaluator with unrounded weights.
     pub max_error_float_weights: f64,
+    /// Largest absolute error with weights rounded to 8 fractional bits.
     pub max_error_8bit_weights: f64,
+    /// RMS error with weights rounded to 8 fractional bits.
     pub rms_error_8bit_weights: f64,
 }
 
@@ -165,10 +203,15 @@ fn packed_linear_fetch_report(d: &Derivation) -> Option<PackedLinearFetchReport>
 /// How the fast shader locates a point and what one evaluation costs.
 #[derive(Serialize)]
 pub struct EvaluationReport {
+    /// The plan's [`Locate`](crate::emit::plan::Locate), in `Debug` form.
     pub locate: String,
+    /// Number of candidate cells tested after locating the frame.
     pub candidates: usize,
+    /// Exact samples fetched per evaluation.
     pub fetches_per_eval: usize,
+    /// Vector adds to walk the fetch positions in axis-aligned order.
     pub vector_adds: usize,
+    /// Adds a plain matrix-vector product per fetch would cost instead.
     pub matvec_adds: usize,
     /// Fetch offsets q (x = b + M q, see `plan`) of the first candidate, in fetch order.
     pub fetch_order: Vec<IVec>,
@@ -177,39 +220,54 @@ pub struct EvaluationReport {
 /// One exact weight at a lattice offset (a prefilter tap or a BB weight).
 #[derive(Serialize)]
 pub struct Weight {
+    /// Lattice offset: the point j of a prefilter tap, or the stencil offset
+    /// (relative to the piece's corner) of a BB weight.
     pub offset: IVec,
+    /// The exact weight.
     pub w: Q,
 }
 
 /// One BB coefficient as a weighted sum of stencil samples.
 #[derive(Serialize)]
 pub struct BbCoefficient {
+    /// Multi-index alpha (|alpha| = degree, s + 1 entries).
     pub index: Vec<u32>,
+    /// Non-zero weights of the stencil samples, by stencil offset.
     pub weights: Vec<Weight>,
 }
 
 /// One term c * u^exponent of a power-form polynomial.
 #[derive(Serialize)]
 pub struct Monomial {
+    /// Exponent e, one entry per coordinate of u.
     pub exponent: Vec<u32>,
+    /// The exact coefficient c.
     pub c: Q,
 }
 
 /// The power-form polynomial of one stencil offset.
 #[derive(Serialize)]
 pub struct PowerPiece {
+    /// Stencil offset k (relative to the piece's corner).
     pub offset: IVec,
+    /// Non-zero terms of the polynomial.
     pub terms: Vec<Monomial>,
 }
 
 /// One reference piece: its cell, stencil and exact forms.
 #[derive(Serialize)]
 pub struct ReferenceReport {
+    /// Integer lower corner z of its cube (the cube is o + z + `[0,1]^s`).
     pub corner: IVec,
+    /// Vertices of the cell, in global coordinates.
     pub vertices: Vec<QVec>,
+    /// Whether the cell is a simplex (and so has a BB form).
     pub is_simplex: bool,
+    /// Number of cells mapped onto this piece.
     pub cells_in_orbit: usize,
+    /// Lattice points relative to `corner` whose basis function is non-zero here.
     pub stencil: Vec<IVec>,
+    /// BB coefficients; empty for non-simplicial pieces or when coefficients are not listed.
     pub bb: Vec<BbCoefficient>,
     /// Power form in local coordinates u = x - o - corner, per stencil offset.
     pub power: Vec<PowerPiece>,
@@ -218,10 +276,15 @@ pub struct ReferenceReport {
 /// One evaluation cell and its map onto its reference piece.
 #[derive(Serialize)]
 pub struct CellReport {
+    /// Index into `cube_class_corners`.
     pub class: usize,
+    /// Vertices of the cell, in global coordinates.
     pub vertices: Vec<QVec>,
+    /// Index into `reference_pieces`.
     pub reference: usize,
+    /// Rows of the signed permutation R of g(x) = R x + t.
     pub rotation: Vec<IVec>,
+    /// The integer translation t of g(x) = R x + t.
     pub translation: IVec,
 }
 

@@ -12,6 +12,7 @@ use std::collections::HashMap;
 /// The planes n . x in offset + period Z.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize)]
 pub struct KnotFamily {
+    /// Primitive integer normal n of the planes.
     pub normal: IVec,
     /// alpha_n = -n.c mod g_n, in [0, g_n).
     pub offset: Q,
@@ -60,6 +61,7 @@ impl KnotFamily {
 pub struct Cell {
     /// Index into `Arrangement::classes`.
     pub class: usize,
+    /// The cell itself, in global coordinates.
     pub polytope: Polytope,
     /// A point strictly inside (the vertex centroid).
     pub interior: QVec,
@@ -68,6 +70,7 @@ pub struct Cell {
 /// The evaluation cells: every cube class cut by the knot planes that cross it.
 #[derive(Clone, Debug)]
 pub struct Arrangement {
+    /// The knot-plane families, one per primitive normal.
     pub families: Vec<KnotFamily>,
     /// o: grid planes are x_i in o_i + Z.
     pub grid_offset: QVec,
@@ -191,8 +194,11 @@ impl Arrangement {
 /// cells from it without cutting.
 #[derive(Clone, Debug)]
 pub struct Frame {
+    /// The knot-plane families, one per primitive normal.
     pub families: Vec<KnotFamily>,
+    /// o: grid planes are x_i in o_i + Z.
     pub grid_offset: QVec,
+    /// Integer lower corners z of the representative cubes (one per class of Z^s / L).
     pub classes: Vec<IVec>,
 }
 

@@ -9,6 +9,7 @@ use crate::math::scaled::{mul_add, ratio, Scaled};
 /// The BB coefficients of a simplicial piece as weights of the stencil samples.
 #[derive(Clone, Debug)]
 pub struct BbForm {
+    /// Polynomial degree of the piece (|alpha| of every multi-index).
     pub degree: usize,
     /// Simplex vertices v_0..v_s in local coordinates.
     pub vertices: Vec<QVec>,

@@ -7,6 +7,7 @@ use crate::derive::Derivation;
 /// f64 copies of what evaluation needs.
 #[derive(Clone, Debug)]
 pub struct F64Tables {
+    /// The grid offset o, in f64.
     pub offset: Vec<f64>,
     /// Per cell: facets (normal, bound).
     pub cells: Vec<Vec<(Vec<f64>, f64)>>,
@@ -17,6 +18,7 @@ pub struct F64Tables {
 /// f64 copy of one reference piece's polynomials (one per stencil sample).
 #[derive(Clone, Debug)]
 pub struct F64Reference {
+    /// Monomial exponents shared by every polynomial of the piece.
     pub exps: Vec<Vec<u32>>,
     /// Per stencil sample: coefficients in `exps` order.
     pub coeffs: Vec<Vec<f64>>,

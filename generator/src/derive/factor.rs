@@ -34,6 +34,7 @@ pub struct AxisFactor {
 /// The tensor-product structure of a filter, when it has one.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Factorisation {
+    /// One factor per coordinate axis, in axis order.
     pub axes: Vec<AxisFactor>,
     /// Representatives of the cosets of diag(a) Z^s in L, in [0, a_i).
     pub cosets: Vec<IVec>,

@@ -60,7 +60,9 @@ impl Estimate {
 pub struct CellMap {
     /// Index into `Derivation::references`.
     pub reference: usize,
+    /// R: a signed permutation from the symmetry group (rows).
     pub rotation: SignedPerm,
+    /// t: an integer translation.
     pub translation: IVec,
 }
 
@@ -88,6 +90,7 @@ pub struct ReferencePiece {
     pub corner: IVec,
     /// Vertices in global coordinates.
     pub vertices: Vec<QVec>,
+    /// Whether the cell is a simplex (then its BB form exists).
     pub is_simplex: bool,
     /// Lattice points relative to `corner` whose basis function is non-zero here.
     pub stencil: Vec<IVec>,
@@ -112,15 +115,21 @@ pub struct Forms {
 /// the emitter work.
 #[derive(Clone, Debug)]
 pub struct Derivation {
+    /// The validated filter this was derived from.
     pub filter: Filter,
+    /// Facts of the direction matrix (degree, order, support, normals).
     pub facts: SplineFacts,
     /// The symmetries used (signed permutations that keep L, Xi and the grid).
     pub group: Vec<SignedPerm>,
+    /// Knot planes, cube classes and the evaluation cells.
     pub arrangement: Arrangement,
+    /// The PP-form of the spline, the source of every piece polynomial.
     pub pp: PpForm,
     /// For every cell, its map onto its reference piece.
     pub maps: Vec<CellMap>,
+    /// One reference piece per orbit of cells; `maps` index into it.
     pub references: Vec<ReferencePiece>,
+    /// The quasi-interpolation prefilter.
     pub prefilter: Prefilter,
     /// The size estimate the derivation was admitted on.
     pub estimate: Estimate,

@@ -25,8 +25,11 @@ pub struct ConeTerm {
 /// phi(x) = |det G| * sum_sigma w_sigma * T(x + c - sigma), T = sum of cone terms.
 #[derive(Clone, Debug)]
 pub struct PpForm {
+    /// Dimension s.
     pub dim: usize,
+    /// Polynomial degree of the pieces.
     pub degree: usize,
+    /// The cone terms whose sum is the truncated power T.
     pub terms: Vec<ConeTerm>,
     /// (sigma, w_sigma): merged shifts of the truncated power.
     pub shifts: Vec<(IVec, Q)>,

@@ -9,15 +9,21 @@ use crate::spec::Filter;
 /// What follows from the direction matrix alone.
 #[derive(Clone, Debug)]
 pub struct SplineFacts {
+    /// Dimension s.
     pub dim: usize,
+    /// The directions, as given (with repeats).
     pub directions: Vec<IVec>,
     /// Distinct directions up to sign (sign-normalised, primitive-free: the
     /// actual vectors), with multiplicities.
     pub distinct: Vec<(IVec, usize)>,
+    /// Polynomial degree of the pieces: number of directions - s.
     pub degree: usize,
+    /// Approximation order rho: the fewest directions off any knot hyperplane.
     pub approximation_order: usize,
     /// C^k continuity; -1 means discontinuous.
     pub continuity: i64,
+    /// Volume of the support (the zonotope): the sum of |det| over every
+    /// s-subset of directions.
     pub support_volume: i64,
     /// c = (1/2) sum xi: phi(x) = |det G| M(x + c).
     pub center: QVec,

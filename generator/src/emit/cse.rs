@@ -19,8 +19,11 @@ use std::collections::{BTreeMap, BinaryHeap, HashMap};
 /// inputs and defined variables.
 #[derive(Clone, Debug)]
 pub struct LinearMap {
+    /// Number of inputs x (variables 0..inputs).
     pub inputs: usize,
+    /// (a, b, q): variable `inputs + m` is x_a + q x_b, for `defs[m]`.
     pub defs: Vec<(usize, usize, Q)>,
+    /// Per output y_i: (variable, weight) pairs summed.
     pub rows: Vec<Vec<(usize, Q)>>,
 }
 

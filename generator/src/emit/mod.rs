@@ -98,10 +98,13 @@ impl Variant {
 /// What to emit: layout, code shape, bindings, form and fetch choices.
 #[derive(Clone, Debug)]
 pub struct EmitOptions {
+    /// Storage layout of the samples.
     pub layout: Layout,
+    /// Fast (branch-free) or naive code.
     pub variant: Variant,
     /// Bind group and first binding of the samples.
     pub group: u32,
+    /// First binding of the samples; the others follow it.
     pub binding: u32,
     /// Include the prefilter and min/max compute kernels.
     pub kernels: bool,
@@ -185,9 +188,13 @@ impl Bounds {
 /// Static cost of one evaluation form, as the cost model sees it.
 #[derive(Clone, Debug, Serialize, PartialEq, Eq)]
 pub struct FormCost {
+    /// The form this is the cost of.
     pub form: EvalForm,
+    /// Exact samples fetched per evaluation.
     pub fetches: usize,
+    /// Static op count of `<f>_eval`.
     pub ops_eval: usize,
+    /// Static op count of `<f>_eval_grad`.
     pub ops_eval_grad: usize,
 }
 
@@ -219,29 +226,44 @@ impl Default for EmitOptions {
 /// Counts reported per emitted module.
 #[derive(Clone, Debug, Serialize)]
 pub struct EmitStats {
+    /// Storage layout of the module.
     pub layout: Layout,
+    /// Code shape of the module.
     pub variant: Variant,
+    /// The plan's [`Locate`], in `Debug` form.
     pub locate: String,
+    /// Number of candidate cells tested after locating the frame.
     pub candidates: usize,
+    /// Fetches per evaluation (hardware-filtered ones when `fetch` is linear).
     pub fetches_per_eval: usize,
+    /// Vector adds to walk the fetch positions.
     pub vector_adds: usize,
+    /// Adds a plain matrix-vector product per fetch would cost instead
+    /// (equal to `vector_adds` for the factored form).
     pub matvec_adds: usize,
     /// Arithmetic operators, comparisons, selects and builtin calls in the
     /// source of `eval` / `eval_grad` (a static count, not a timing).
     pub ops_eval: usize,
+    /// The same count for `eval_grad`.
     pub ops_eval_grad: usize,
     /// The form used, and the static cost of every form available here.
     pub form: EvalForm,
+    /// Static cost of every form available here (see [`FormCost`]).
     pub forms: Vec<FormCost>,
+    /// What fetches do outside the volume.
     pub bounds: Bounds,
+    /// Exact loads or hardware-filtered fetches in `eval`.
     pub fetch: FetchMode,
 }
 
 /// One emitted WGSL module: its file name, source and counts.
 #[derive(Clone, Debug)]
 pub struct Emitted {
+    /// File name: `<filter>.<layout>[.naive][.linear].wgsl`.
     pub file_name: String,
+    /// The WGSL source.
     pub source: String,
+    /// Counts of the module.
     pub stats: EmitStats,
 }
 

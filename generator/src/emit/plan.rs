@@ -20,7 +20,11 @@ use crate::math::polytope::{HalfSpace, Polytope};
 pub enum Locate {
     /// Fold every coordinate about the nearest point of 2Z^s (u = |x - c|),
     /// then, if `sort`, sort u descending (a sorting network).
-    Fold { sort: bool },
+    Fold {
+        /// Whether u is then sorted descending (possible when the group holds
+        /// every axis permutation and the grid offset is equal on all axes).
+        sort: bool,
+    },
     /// Select over all cube classes and cells (any lattice, any filter).
     Generic,
 }
@@ -28,8 +32,11 @@ pub enum Locate {
 /// One cell that the point may fall in after locating, in w-space.
 #[derive(Clone, Debug)]
 pub struct Candidate {
+    /// Index into `Derivation::references`.
     pub reference: usize,
+    /// R of y = R w + t (rows).
     pub rotation: SignedPerm,
+    /// t of y = R w + t.
     pub translation: IVec,
     /// Inside test: n . w <= b for all.
     pub tests: Vec<HalfSpace>,
@@ -43,20 +50,27 @@ pub struct Candidate {
 /// the fetch slots of every reference.
 #[derive(Clone, Debug)]
 pub struct Plan {
+    /// Dimension s.
     pub dim: usize,
+    /// How the frame is found.
     pub locate: Locate,
+    /// The grid offset o of the arrangement.
     pub grid_offset: QVec,
+    /// The cells the located point may fall in; the last satisfied one wins.
     pub candidates: Vec<Candidate>,
     /// Per reference: stencil index fetched in each slot (None: slot unused).
     pub slots: Vec<Vec<Option<usize>>>,
     /// Generic path: class representatives (nice), their canonical reductions
     /// and the lower-triangular Hermite basis of L (columns).
     pub classes: Vec<IVec>,
+    /// Generic path: the canonical reduction of each class representative.
     pub class_keys: Vec<IVec>,
+    /// Generic path: the lower-triangular Hermite basis of L (columns).
     pub hermite: Vec<IVec>,
     /// Vector adds to walk the fetch positions (axis-aligned order), and the
     /// adds a plain matrix-vector product per fetch would cost.
     pub vector_adds: usize,
+    /// Adds a plain matrix-vector product per fetch would cost.
     pub matvec_adds: usize,
 }
 
@@ -65,7 +79,9 @@ pub struct Plan {
 pub struct Located {
     /// Index of the chosen candidate.
     pub candidate: usize,
+    /// Integer base b of the frame.
     pub base: IVec,
+    /// Signed permutation M of the frame (rows).
     pub m: Vec<IVec>,
     /// Local coordinates in the chosen candidate's reference piece.
     pub u: Vec<f64>,

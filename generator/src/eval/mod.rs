@@ -14,7 +14,9 @@ use crate::math::poly::eval_poly_f64;
 /// lattice vector l that moves the representative cube onto the point's cube.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Location {
+    /// Index into `Arrangement::cells` (a cell of the representative cube).
     pub cell: usize,
+    /// Lattice vector l from the representative cube to the point's cube.
     pub lattice_shift: IVec,
 }
 

@@ -15,7 +15,9 @@ use std::ops::{Add, AddAssign, Div, Mul, MulAssign, Neg, Sub, SubAssign};
 /// fit the `Small` representation, so structural equality is value equality.
 #[derive(Clone, Debug)]
 pub enum Q {
+    /// A value whose numerator and denominator fit `i128`.
     Small(Ratio<i128>),
+    /// A value that does not fit `Small` (never one that does).
     Big(Box<BigRational>),
 }
 

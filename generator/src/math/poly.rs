@@ -9,8 +9,11 @@ use std::sync::{Arc, Mutex, OnceLock};
 /// (degree 0 first) and lexicographically descending within a degree.
 #[derive(Debug)]
 pub struct Monomials {
+    /// Number of variables.
     pub nvars: usize,
+    /// Largest total degree.
     pub degree: usize,
+    /// Exponent vectors, graded and lexicographically descending within a degree.
     pub exps: Vec<Vec<u32>>,
     index: HashMap<Vec<u32>, usize>,
     /// times_var[i][v]: index of exps[i] + e_v, or usize::MAX past the degree.
@@ -87,7 +90,9 @@ fn compositions(n: usize, total: u32, cur: &mut Vec<u32>, out: &mut Vec<Vec<u32>
 /// A polynomial sum_e c_e x^e with |e| <= basis.degree.
 #[derive(Clone, Debug)]
 pub struct Poly {
+    /// The monomials the coefficients refer to.
     pub basis: Arc<Monomials>,
+    /// Coefficient of each monomial, in `basis.exps` order.
     pub coeffs: Vec<Q>,
 }
 

@@ -9,7 +9,9 @@ use crate::math::subsets;
 /// The half-space n . x <= b.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct HalfSpace {
+    /// The normal n.
     pub normal: QVec,
+    /// The bound b.
     pub bound: Q,
 }
 

@@ -14,7 +14,9 @@ use num_rational::Ratio;
 /// `values[i] = numerators[i] / denominator`, `denominator > 0`.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Scaled {
+    /// Numerators over the common denominator.
     pub numerators: Vec<i128>,
+    /// The common denominator, positive.
     pub denominator: i128,
 }
 

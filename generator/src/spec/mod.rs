@@ -22,8 +22,12 @@ use std::path::Path;
 #[derive(Clone, Debug, Deserialize, PartialEq, Eq)]
 #[serde(deny_unknown_fields, default)]
 pub struct Caps {
+    /// Most directions a filter may have.
     pub max_directions: usize,
+    /// Highest polynomial degree (number of directions minus the dimension).
     pub max_degree: usize,
+    /// Most samples per evaluation: checked early against support volume /
+    /// |det G|, then against the largest stencil of any reference piece.
     pub max_stencil: usize,
     /// Evaluation cells per fundamental domain (counted exactly before any
     /// cell is cut).
@@ -116,10 +120,15 @@ enum RawLattice {
 /// A validated filter: a lattice and integer directions in it.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Filter {
+    /// Name: ASCII letters, digits and `_` (it prefixes WGSL identifiers).
     pub name: String,
+    /// Free-text description (may be empty).
     pub description: String,
+    /// The lattice the samples lie on.
     pub lattice: Lattice,
+    /// The integer directions, each a point of the lattice.
     pub directions: Vec<IVec>,
+    /// Limits on the derivation.
     pub caps: Caps,
     /// The evaluation form asked for (default `auto`).
     pub form: EvalForm,
