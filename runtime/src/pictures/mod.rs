@@ -47,9 +47,8 @@ impl Image {
         }
         let i = (y as usize * self.width as usize + x as usize) * 4;
         let a = a.clamp(0.0, 1.0);
-        for c in 0..3 {
-            let v = self.rgba[i + c] as f32 * (1.0 - a) + rgb[c] as f32 * a;
-            self.rgba[i + c] = v.round() as u8;
+        for (dst, &src) in self.rgba[i..i + 3].iter_mut().zip(&rgb) {
+            *dst = (*dst as f32 * (1.0 - a) + src as f32 * a).round() as u8;
         }
         self.rgba[i + 3] = 255;
     }
@@ -149,11 +148,7 @@ pub fn colormap(t: f64) -> [u8; 3] {
     let f = t * (STOPS.len() - 1) as f64;
     let i = (f.floor() as usize).min(STOPS.len() - 2);
     let u = f - i as f64;
-    let mut out = [0u8; 3];
-    for c in 0..3 {
-        out[c] = (STOPS[i][c] * (1.0 - u) + STOPS[i + 1][c] * u).round() as u8;
-    }
-    out
+    std::array::from_fn(|c| (STOPS[i][c] * (1.0 - u) + STOPS[i + 1][c] * u).round() as u8)
 }
 
 /// A colour-coded image of `values` (row-major, width x height) on the
