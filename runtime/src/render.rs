@@ -243,11 +243,11 @@ pub struct HitPlan {
     /// and every knot-plane family that is not an axis (axis knot planes are
     /// grid planes). Between two consecutive crossings the ray stays in one cell.
     pub families: Vec<([f64; 3], f64, f64)>,
-    /// The grid offset o (cubes are o + z + [0,1]^3).
+    /// The grid offset o (cubes are o + z + `[0,1]^3`).
     pub grid_offset: [f64; 3],
     /// The filter's degree: the degree of the spline on every segment.
     pub degree: usize,
-    /// Where a segment is sampled (u in [0,1]) and whether the sample also
+    /// Where a segment is sampled (u in `[0,1]`) and whether the sample also
     /// takes the derivative along the ray (from `_eval_grad`, which costs
     /// about one `_eval`): together degree + 1 conditions.
     pub samples: Vec<(f64, bool)>,
@@ -351,7 +351,7 @@ impl HitPlan {
         }
     }
 
-    /// Bernstein coefficients on [0,1] from the conditions (values and
+    /// Bernstein coefficients on `[0,1]` from the conditions (values and
     /// derivatives d/du in the order of `samples`).
     pub fn coefficients(&self, conditions: &[f64]) -> Vec<f64> {
         self.coefficients_with(&self.to_bernstein, conditions)
@@ -430,7 +430,7 @@ fn invert(m: &[Vec<f64>]) -> Vec<Vec<f64>> {
     a.into_iter().map(|r| r[n..].to_vec()).collect()
 }
 
-/// The polynomial with Bernstein coefficients `c` on [0,1] at u (de Casteljau).
+/// The polynomial with Bernstein coefficients `c` on `[0,1]` at u (de Casteljau).
 pub fn bernstein_at(c: &[f64], u: f64) -> f64 {
     let mut b = c.to_vec();
     for r in 1..b.len() {
@@ -470,7 +470,7 @@ fn variations(c: &[f64]) -> usize {
     c.windows(2).filter(|w| (w[0] < 0.0) != (w[1] < 0.0)).count()
 }
 
-/// The first root in [0,1] of the polynomial with Bernstein coefficients
+/// The first root in `[0,1]` of the polynomial with Bernstein coefficients
 /// `c` (of f - iso), to `tol` in u: depth-first, left-first over dyadic
 /// intervals, an interval is dropped when its coefficients have one sign,
 /// accepted when they change sign once (exactly one root), split otherwise
