@@ -94,6 +94,12 @@ fn forms_can_be_forced_and_factored_is_refused_where_it_does_not_apply() {
         assert!(r.valid, "{form:?}: {}", r.error.clone().unwrap_or_default());
         check_branch_free(&r, &["bcc7_eval", "bcc7_eval_grad"]).unwrap();
     }
+    // Above RIDGE_MAX_DEGREE (f32 cancellation) forcing ridge is refused with the alternatives.
+    let tricubic = boxforge_tests::derive("cc_tricubic");
+    let err = emit(&tricubic, &EmitOptions { form: Some(EvalForm::Ridge), ..EmitOptions::default() }).unwrap_err();
+    assert!(err.to_string().contains("ridge") && err.to_string().contains("power"), "{err}");
+    let auto = emit(&tricubic, &EmitOptions::default()).unwrap();
+    assert!(auto.stats.forms.iter().all(|f| f.form != EvalForm::Ridge), "not offered above the degree");
     // The ridge form on other lattices and dimensions: valid and branch-free.
     for name in ["fcc6", "bcc8", "courant", "zp", "bcc_linear"] {
         let d = boxforge_tests::derive(name);
