@@ -181,16 +181,15 @@ fn linear_fetch_report(d: &Derivation) -> Option<LinearFetchReport> {
     })
 }
 
-fn packed_linear_fetch_report(d: &Derivation) -> Option<PackedLinearFetchReport> {
+fn packed_linear_fetch_report(d: &Derivation, plan: &crate::emit::plan::Plan) -> Option<PackedLinearFetchReport> {
     crate::emit::coset_pivots(&d.filter.lattice).ok()?;
-    let plan = crate::emit::plan::Plan::new(d);
     let lin = crate::emit::linear::LinearPlan::new(d);
-    if lin.fetches(&plan) >= plan.fetches() {
+    if lin.fetches(plan) >= plan.fetches() {
         return None;
     }
-    let (max_f, max_8, rms) = linear_errors(d, &|x, bits| lin.eval_f64(d, &plan, x, &hashed_data, bits));
+    let (max_f, max_8, rms) = linear_errors(d, &|x, bits| lin.eval_f64(d, plan, x, &hashed_data, bits));
     Some(PackedLinearFetchReport {
-        fetches: lin.fetches(&plan),
+        fetches: lin.fetches(plan),
         exact_loads: plan.fetches(),
         non_negative: lin.proof.clone(),
         points: PRECISION_POINTS,
@@ -295,6 +294,7 @@ impl Report {
         let arr = &d.arrangement;
         let polynomials = d.polynomials();
         let detailed = polynomials <= DETAIL_LIMIT_POLYNOMIALS;
+        let plan = crate::emit::plan::Plan::new(d);
         Report {
             name: f.name.clone(),
             description: f.description.clone(),
@@ -364,7 +364,6 @@ impl Report {
             prefilter: d.prefilter.taps.iter().map(|(j, w)| Weight { offset: j.clone(), w: w.clone() }).collect(),
             prefilter_shells: d.prefilter.shells,
             evaluation: {
-                let plan = crate::emit::plan::Plan::new(d);
                 EvaluationReport {
                     locate: format!("{:?}", plan.locate),
                     candidates: plan.candidates.len(),
@@ -376,7 +375,7 @@ impl Report {
             },
             shaders: vec![],
             linear_fetch: linear_fetch_report(d),
-            linear_fetch_packed: packed_linear_fetch_report(d),
+            linear_fetch_packed: packed_linear_fetch_report(d, &plan),
             work: WorkReport { estimate: d.estimate, polynomials, coefficients_listed: detailed },
             derivation_seconds: None,
             cells: arr

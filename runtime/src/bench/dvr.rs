@@ -114,20 +114,8 @@ pub fn rows(gpu: &Gpu, o: &BenchOptions, rounds: usize, progress: &dyn Fn(&str))
     };
     let skipping = Ratio::of_rates(&ms[1], &ms[0]);
     let preint = Ratio::of_rates(&ms[0], &ms[2]);
-    let row = |variant: String, k: usize, ratio: Option<Ratio>, baseline: Option<String>| BenchRow {
-        filter: name.into(),
-        layout: "embedded".into(),
-        variant,
-        kind: kind.clone(),
-        evals_per_s: None,
-        ms_per_frame: Some(median(&ms[k])),
-        ratio_to_baseline: ratio.map(|r| r.median),
-        ratio,
-        baseline,
-        fetches: None,
-        ops: None,
-        bytes: None,
-        max_rel_diff_to_baseline: None,
+    let row = |variant: String, k: usize, ratio: Option<Ratio>, baseline: Option<String>| {
+        BenchRow::render(name, &kind, variant, median(&ms[k]), ratio, baseline)
     };
     Ok(vec![
         row(format!("DVR step {STEP}, pre-integrated, TF skipping ({:.0}% of blocks transparent)", empty * 100.0), 0, None, None),

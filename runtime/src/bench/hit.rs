@@ -75,24 +75,6 @@ pub fn misses(reference: &[f32], depth: &[f32]) -> Misses {
     m
 }
 
-fn row(name: &str, kind: &str, variant: String, ms: f64, ratio: Option<Ratio>, baseline: Option<String>) -> BenchRow {
-    BenchRow {
-        filter: name.into(),
-        layout: "embedded".into(),
-        variant,
-        kind: kind.into(),
-        evals_per_s: None,
-        ms_per_frame: Some(ms),
-        ratio_to_baseline: ratio.map(|r| r.median),
-        ratio,
-        baseline,
-        fetches: None,
-        ops: None,
-        bytes: None,
-        max_rel_diff_to_baseline: None,
-    }
-}
-
 /// For bcc7 and cc_tricubic: exact and step 0.25 on the Marschner-Lobb
 /// volume `ml` at the largest of `sizes`, timed in interleaved rounds (the
 /// ratio exact ÷ step time), and the missed pixels of step 0.5 and exact on
@@ -123,7 +105,7 @@ pub fn rows(
     }
     let ratio = Ratio::of_rates(&ms[0], &ms[1]);
     let kind = format!("hit_ml_{size}");
-    out.push(row(
+    out.push(BenchRow::render(
         name,
         &kind,
         "exact hit".into(),
@@ -131,7 +113,7 @@ pub fn rows(
         Some(ratio),
         Some("exact ÷ step 0.25 (time)".into()),
     ));
-    out.push(row(name, &kind, "step 0.25".into(), median(&ms[1]), None, None));
+    out.push(BenchRow::render(name, &kind, "step 0.25".into(), median(&ms[1]), None, None));
 
     // Thin features: missed pixels against the CPU reference.
     let edge = 40;
@@ -148,7 +130,7 @@ pub fn rows(
     ] {
         let (frame, depth) = render::render_with_depth(gpu, d, &shell, Layout::Embedded, &o).map_err(e)?;
         let m = misses(&reference, &depth);
-        out.push(row(
+        out.push(BenchRow::render(
             name,
             &kind,
             format!("{label}: {} of {} reference hits missed, {} extra", m.missed, m.reference_hits, m.extra),

@@ -57,6 +57,34 @@ pub struct BenchRow {
     pub max_rel_diff_to_baseline: Option<f64>,
 }
 
+impl BenchRow {
+    /// A rendering row (embedded layout, ms/frame, optional ratio to a baseline).
+    pub fn render(
+        filter: &str,
+        kind: &str,
+        variant: String,
+        ms: f64,
+        ratio: Option<Ratio>,
+        baseline: Option<String>,
+    ) -> BenchRow {
+        BenchRow {
+            filter: filter.into(),
+            layout: "embedded".into(),
+            variant,
+            kind: kind.into(),
+            evals_per_s: None,
+            ms_per_frame: Some(ms),
+            ratio_to_baseline: ratio.map(|r| r.median),
+            ratio,
+            baseline,
+            fetches: None,
+            ops: None,
+            bytes: None,
+            max_rel_diff_to_baseline: None,
+        }
+    }
+}
+
 /// The generated evaluation timed beside a hand-written one.
 #[derive(Clone, Debug, Serialize)]
 pub struct ReferenceRow {
@@ -894,20 +922,8 @@ fn render_rows(name: &str, kind: &str, ms: &[(f64, f64)]) -> Vec<BenchRow> {
     let skip: Vec<f64> = ms.iter().map(|m| m.0).collect();
     let noskip: Vec<f64> = ms.iter().map(|m| m.1).collect();
     let ratio = Ratio::of_rates(&noskip, &skip);
-    let row = |variant: &str, ms: f64, ratio: Option<Ratio>| BenchRow {
-        filter: name.into(),
-        layout: "embedded".into(),
-        variant: variant.into(),
-        kind: kind.into(),
-        evals_per_s: None,
-        ms_per_frame: Some(ms),
-        ratio_to_baseline: ratio.map(|r| r.median),
-        ratio,
-        baseline: ratio.map(|_| "no skipping ÷ skipping (time)".into()),
-        fetches: None,
-        ops: None,
-        bytes: None,
-        max_rel_diff_to_baseline: None,
+    let row = |variant: &str, ms: f64, ratio: Option<Ratio>| {
+        BenchRow::render(name, kind, variant.into(), ms, ratio, ratio.map(|_| "no skipping ÷ skipping (time)".into()))
     };
     vec![row("fast, skipping", median(&skip), None), row("fast, no skipping", median(&noskip), Some(ratio))]
 }

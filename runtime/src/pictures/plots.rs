@@ -19,6 +19,21 @@ fn register_font() {
     });
 }
 
+type Area<'a> = DrawingArea<SVGBackend<'a>, plotters::coord::Shift>;
+
+/// A 640 x 420 white SVG canvas handed to `draw`, returned as SVG text.
+fn svg(draw: impl FnOnce(&Area) -> Result<(), String>) -> Result<String, String> {
+    register_font();
+    let mut out = String::new();
+    {
+        let root = SVGBackend::with_string(&mut out, (640, 420)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| e.to_string())?;
+        draw(&root)?;
+        root.present().map_err(|e| e.to_string())?;
+    }
+    Ok(out)
+}
+
 /// The positive range of all points on one axis, padded by a factor for a log axis.
 fn log_range(series: &[Series], axis: impl Fn(&(f64, f64)) -> f64) -> Option<(f64, f64)> {
     let vals: Vec<f64> =
@@ -35,15 +50,11 @@ fn log_range(series: &[Series], axis: impl Fn(&(f64, f64)) -> f64) -> Option<(f6
 /// When no point is positive on both axes (nothing to draw on log axes), or
 /// plotters fails to lay the chart out.
 pub fn log_log(title: &str, x_label: &str, y_label: &str, series: &[Series]) -> Result<String, String> {
-    register_font();
     let (x0, x1) = log_range(series, |p| p.0).ok_or("a log-log plot needs positive x values")?;
     let (y0, y1) = log_range(series, |p| p.1).ok_or("a log-log plot needs positive y values")?;
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, (640, 420)).into_drawing_area();
+    svg(|root| {
         let e = |x: DrawingAreaErrorKind<std::io::Error>| x.to_string();
-        root.fill(&WHITE).map_err(e)?;
-        let mut chart = ChartBuilder::on(&root)
+        let mut chart = ChartBuilder::on(root)
             .caption(title, ("sans-serif", 20))
             .margin(12)
             .x_label_area_size(44)
@@ -68,9 +79,8 @@ pub fn log_log(title: &str, x_label: &str, y_label: &str, series: &[Series]) -> 
             chart.draw_series(pts.iter().map(|&p| Circle::new(p, 3, color.filled()))).map_err(e)?;
         }
         chart.configure_series_labels().background_style(WHITE.mix(0.85)).border_style(BLACK).draw().map_err(e)?;
-        root.present().map_err(e)?;
-    }
-    Ok(svg)
+        Ok(())
+    })
 }
 
 /// A bar chart of named values (linear axis from 0), as SVG text.
@@ -79,18 +89,14 @@ pub fn log_log(title: &str, x_label: &str, y_label: &str, series: &[Series]) -> 
 ///
 /// When there are no bars or no positive value, or plotters fails.
 pub fn bars(title: &str, y_label: &str, bars: &[(String, f64)]) -> Result<String, String> {
-    register_font();
     let top = bars.iter().map(|b| b.1).filter(|v| v.is_finite()).fold(0f64, f64::max);
     if bars.is_empty() || top <= 0.0 {
         return Err("a bar chart needs at least one positive value".into());
     }
     let n = bars.len();
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, (640, 420)).into_drawing_area();
+    svg(|root| {
         let e = |x: DrawingAreaErrorKind<std::io::Error>| x.to_string();
-        root.fill(&WHITE).map_err(e)?;
-        let mut chart = ChartBuilder::on(&root)
+        let mut chart = ChartBuilder::on(root)
             .caption(title, ("sans-serif", 20))
             .margin(12)
             .x_label_area_size(44)
@@ -120,9 +126,8 @@ pub fn bars(title: &str, y_label: &str, bars: &[(String, f64)]) -> Result<String
                 Rectangle::new([(i as f64 - 0.35, 0.0), (i as f64 + 0.35, b.1)], c.filled())
             }))
             .map_err(e)?;
-        root.present().map_err(e)?;
-    }
-    Ok(svg)
+        Ok(())
+    })
 }
 
 /// Least-squares slope of log y against log x (the measured order of a
