@@ -28,20 +28,33 @@ fn cc_trilinear_is_lattice(j: vec3<i32>) -> bool {
 }
 
 /// Bounds (min, max) of the spline over the unit cube [z, z+1]: the range of
-/// the samples with non-zero weight there (non-negative weights summing to one).
+/// its tensor Bernstein coefficients there (convex hull property).
 fn cc_trilinear_cube_bounds(z: vec3<i32>) -> vec2<f32> {
-    let p = vec3<f32>(z) + 0.5;
-    var lo = 3.4e38;
-    var hi = -3.4e38;
-    {
-        let jb = vec3<i32>(floor(p + 1.0));
-        for (var k = 0; k < 8; k++) {
-            let c = cc_trilinear_fetch(jb - vec3<i32>(((k / 1) % 2), ((k / 2) % 2), ((k / 4) % 2)) * vec3<i32>(1, 1, 1));
-            lo = min(lo, c);
-            hi = max(hi, c);
-        }
-    }
-    return vec2<f32>(lo, hi);
+    let p_0 = vec3<f32>(z) + 0.5;
+    let jb_1 = vec3<i32>(floor(p_0 + 1.0));
+    let f_2 = cc_trilinear_fetch(jb_1);
+    let f_3 = cc_trilinear_fetch(jb_1 + vec3<i32>(-1, 0, 0));
+    let f_4 = cc_trilinear_fetch(jb_1 + vec3<i32>(0, -1, 0));
+    let f_5 = cc_trilinear_fetch(jb_1 + vec3<i32>(-1, -1, 0));
+    let f_6 = cc_trilinear_fetch(jb_1 + vec3<i32>(0, 0, -1));
+    let f_7 = cc_trilinear_fetch(jb_1 + vec3<i32>(-1, 0, -1));
+    let f_8 = cc_trilinear_fetch(jb_1 + vec3<i32>(0, -1, -1));
+    let f_9 = cc_trilinear_fetch(jb_1 + vec3<i32>(-1, -1, -1));
+    let lo_10 = min(f_9, f_8);
+    let hi_11 = max(f_9, f_8);
+    let lo_12 = min(lo_10, f_7);
+    let hi_13 = max(hi_11, f_7);
+    let lo_14 = min(lo_12, f_6);
+    let hi_15 = max(hi_13, f_6);
+    let lo_16 = min(lo_14, f_5);
+    let hi_17 = max(hi_15, f_5);
+    let lo_18 = min(lo_16, f_4);
+    let hi_19 = max(hi_17, f_4);
+    let lo_20 = min(lo_18, f_3);
+    let hi_21 = max(hi_19, f_3);
+    let lo_22 = min(lo_20, f_2);
+    let hi_23 = max(hi_21, f_2);
+    return vec2<f32>(lo_22, hi_23);
 }
 
 /// The spline at p (lattice coordinates embedded in Z^3).
