@@ -222,8 +222,11 @@ pub(crate) fn block_bounds(
         let mut bind0 = dv.bind_entries(0);
         bind0.push(wgpu::BindGroupEntry { binding: out_binding, resource: blocks_buf.as_entire_binding() });
         bind0.push(wgpu::BindGroupEntry { binding: out_binding + 1, resource: job_buf.as_entire_binding() });
-        let bg_mm =
-            dev.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("minmax"), layout: &bgl_mm, entries: &bind0 });
+        let bg_mm = dev.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("minmax"),
+            layout: &bgl_mm,
+            entries: &bind0,
+        });
         gpu.dispatch("minmax", &minmax, &[&bg_mm], ((count as u32).div_ceil(64), 1, 1))?;
         let raw: Vec<f32> = bytemuck::cast_slice(&gpu.read_buffer(&blocks_buf)?).to_vec();
         bounds.extend(raw.chunks(2).map(|b| [b[0], b[1]]));
@@ -394,7 +397,13 @@ impl<'a> DvrScene<'a> {
 
 /// The group-1 layout entries of the ray caster (bindings 0 to 4).
 pub(crate) fn caster_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
-    vec![uniform_entry(0), storage_entry(1, false), storage_entry(2, true), storage_entry(3, true), storage_entry(4, true)]
+    vec![
+        uniform_entry(0),
+        storage_entry(1, false),
+        storage_entry(2, true),
+        storage_entry(3, true),
+        storage_entry(4, true),
+    ]
 }
 
 /// A ray caster other than the scene's own: its pipeline, its group-1

@@ -160,7 +160,13 @@ pub fn check_request(cache: &str, mode: &str, qc: Option<u32>, qc_grad: Option<u
     }
     let one = formula(&Counts { cells: 0, rows: 0, candidates: 1, quant }).total();
     if one > MAX_BYTES {
-        let largest = (1..).take_while(|&k| formula(&Counts { cells: 0, rows: 0, candidates: 1, quant: Quant { density: k, gradient: k } }).total() <= MAX_BYTES).last().unwrap_or(1);
+        let largest = (1..)
+            .take_while(|&k| {
+                formula(&Counts { cells: 0, rows: 0, candidates: 1, quant: Quant { density: k, gradient: k } }).total()
+                    <= MAX_BYTES
+            })
+            .last()
+            .unwrap_or(1);
         return Err(format!(
             "--qc {} --qc-grad {}: one candidate cell alone needs {one} bytes of PERM cache ({}^3 x {B_DB} + {}^3 x {}), over the limit of {MAX_BYTES} bytes; use --qc {largest} or less",
             quant.density,
@@ -331,7 +337,11 @@ impl PermCache {
             )));
         }
         let layout = scene.dv.layout;
-        let build_src = format!("{}\n{}", filter_module(d, layout)?, template(include_str!("../../templates/perm_build.wgsl.j2"), name));
+        let build_src = format!(
+            "{}\n{}",
+            filter_module(d, layout)?,
+            template(include_str!("../../templates/perm_build.wgsl.j2"), name)
+        );
         let build = gpu.compile(&format!("{name}.perm_build.wgsl"), &build_src)?;
         let bounds = block_bounds(gpu, &build, name, &scene.dv, dims, 1)?;
         let radius = if preintegrate { step.ceil() as i32 } else { 0 };
@@ -344,7 +354,8 @@ impl PermCache {
             quant,
         };
         let need = formula(&counts);
-        let limit = MAX_BYTES.min(gpu.limits().max_storage_buffer_binding_size as u64).min(gpu.limits().max_buffer_size);
+        let limit =
+            MAX_BYTES.min(gpu.limits().max_storage_buffer_binding_size as u64).min(gpu.limits().max_buffer_size);
         if need.total() > limit {
             return Err(GpuError::Runtime(format!(
                 "--qc {} --qc-grad {}: the PERM cache of {} candidate cells needs {}, over the limit of {limit} bytes; use a smaller --qc or --qc-grad",
@@ -407,8 +418,15 @@ impl PermCache {
         );
         let shader = gpu.compile(&format!("{name}.dvr_perm.wgsl"), &render_src)?;
         let mut entries = caster_entries();
-        entries.extend([uniform_entry(5), storage_entry(6, true), storage_entry(7, true), storage_entry(8, true), storage_entry(9, true)]);
-        let bgl = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("dvr perm"), entries: &entries });
+        entries.extend([
+            uniform_entry(5),
+            storage_entry(6, true),
+            storage_entry(7, true),
+            storage_entry(8, true),
+            storage_entry(9, true),
+        ]);
+        let bgl = dev
+            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("dvr perm"), entries: &entries });
         let pipeline = gpu.pipeline("dvr perm", &shader, &[&scene.bgl_s, &bgl], &format!("{name}_dvr_main"))?;
         let params = PermParams {
             dims: [dims[0] as i32, dims[1] as i32, dims[2] as i32, 0],

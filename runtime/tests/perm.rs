@@ -43,7 +43,9 @@ fn reported_memory_is_the_papers_formula_applied_to_our_counts() {
     let vol = LatticeVolume::marschner_lobb(&d.filter.lattice, [16, 16, 16]).unwrap();
     let scene = DvrScene::new(&gpu, &d, &vol, Layout::Embedded, 4).unwrap();
     let table = shell().table();
-    for quant in [Quant { density: 3, gradient: 3 }, Quant { density: 5, gradient: 3 }, Quant { density: 2, gradient: 4 }] {
+    for quant in
+        [Quant { density: 3, gradient: 3 }, Quant { density: 5, gradient: 3 }, Quant { density: 2, gradient: 4 }]
+    {
         let cache = PermCache::build(&scene, &table, quant, 0.5, true).unwrap();
         let c = cache.counts;
         assert_eq!(c.cells, 16 * 16 * 16);
@@ -192,6 +194,9 @@ fn bad_cache_options_are_one_line_and_exit_2_before_any_gpu_work() {
         let stderr = String::from_utf8_lossy(&o.stderr);
         let lines: Vec<&str> = stderr.lines().filter(|l| !l.trim().is_empty()).collect();
         assert_eq!(o.status.code(), Some(2), "{extra:?}: {stderr}");
-        assert!(lines.len() == 1 && lines[0].starts_with("error: ") && lines[0].contains(fragment), "{extra:?}: {stderr}");
+        assert!(
+            lines.len() == 1 && lines[0].starts_with("error: ") && lines[0].contains(fragment),
+            "{extra:?}: {stderr}"
+        );
     }
 }

@@ -66,7 +66,8 @@ pub fn rows(gpu: &Gpu, o: &BenchOptions, rounds: usize, progress: &dyn Fn(&str))
     };
     let mut out = vec![];
     for name in FILTERS {
-        let d = Derivation::new(&boxforge::spec::resolve(name).map_err(|x| x.to_string())?).map_err(|x| x.to_string())?;
+        let d =
+            Derivation::new(&boxforge::spec::resolve(name).map_err(|x| x.to_string())?).map_err(|x| x.to_string())?;
         let (vol, tf, what, view) = match &head {
             Some(h) => {
                 let small = downsample(h, HEAD_DOWNSAMPLE);
@@ -120,7 +121,8 @@ pub fn filter_rows(
         let cache = match PermCache::build(&scene, &table, quant, STEP, true) {
             Ok(c) => c,
             Err(x) => {
-                let mut row = BenchRow::render(name, &kind, format!("PERM N={n} M={m}: not built: {x}"), 0.0, None, None);
+                let mut row =
+                    BenchRow::render(name, &kind, format!("PERM N={n} M={m}: not built: {x}"), 0.0, None, None);
                 row.ms_per_frame = None;
                 rows.push(row);
                 continue;
@@ -157,7 +159,14 @@ pub fn filter_rows(
         rows.push(row);
         direct_all.extend(direct);
     }
-    let mut all = vec![BenchRow::render(name, &kind, format!("DVR step {STEP}, direct evaluation"), median(&direct_all), None, None)];
+    let mut all = vec![BenchRow::render(
+        name,
+        &kind,
+        format!("DVR step {STEP}, direct evaluation"),
+        median(&direct_all),
+        None,
+        None,
+    )];
     all.extend(rows);
     Ok(all)
 }
@@ -223,7 +232,11 @@ mod tests {
             ratio: Some(Ratio { median: (min + max) / 2.0, min, max, rounds: 3, tie: min <= 1.0 && max >= 1.0 }),
             ..BenchRow::render(f, "perm_ml_64", format!("PERM {q}: ..."), 1.0, None, None)
         };
-        let v = verdict(&[row("bcc12", "N=5 M=5", 1.5, 2.5), row("bcc_linear", "N=10 M=10", 0.5, 0.7), row("bcc7", "N=3 M=3", 0.9, 1.1)]);
+        let v = verdict(&[
+            row("bcc12", "N=5 M=5", 1.5, 2.5),
+            row("bcc_linear", "N=10 M=10", 0.5, 0.7),
+            row("bcc7", "N=3 M=3", 0.9, 1.1),
+        ]);
         assert!(v.contains("wins") && v.contains("bcc12 N=5 M=5 (2.00x)"), "{v}");
         assert!(v.contains("loses for bcc_linear N=10 M=10") && v.contains("1 tie"), "{v}");
     }
