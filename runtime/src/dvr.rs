@@ -161,17 +161,78 @@ pub fn dvr_params(d: &Derivation, vol: &LatticeVolume, table: &Tf1d, pi_size: us
     }
 }
 
-fn template(name: &str) -> String {
+/// The DVR template for filter `name`; `perm` makes the ray caster look
+/// values up in the PERM cache (`<f>_perm_sample`, [`crate::perm`]) instead
+/// of calling `<f>_eval_grad` (the only difference in the text).
+fn template(name: &str, perm: bool) -> String {
     let mut env = minijinja::Environment::new();
     env.add_template("dvr", include_str!("../../templates/dvr.wgsl.j2")).expect("template");
-    env.get_template("dvr").unwrap().render(minijinja::context! { name => name }).expect("render")
+    env.get_template("dvr").unwrap().render(minijinja::context! { name => name, perm => perm }).expect("render")
 }
 
 /// The emitted module with the DVR template appended.
 pub fn shader_source(d: &Derivation, layout: Layout) -> Result<String, GpuError> {
+    shader_source_with(d, layout, false)
+}
+
+/// [`shader_source`], with `perm` the ray caster reading the PERM cache.
+pub(crate) fn shader_source_with(d: &Derivation, layout: Layout, perm: bool) -> Result<String, GpuError> {
+    Ok(format!("{}\n{}", filter_module(d, layout)?, template(&d.filter.name, perm)))
+}
+
+/// The emitted filter module (fetch, eval, eval_grad, min/max kernel).
+pub(crate) fn filter_module(d: &Derivation, layout: Layout) -> Result<String, GpuError> {
     let module = emit(d, &EmitOptions { layout, command: "boxforge render --mode dvr".into(), ..Default::default() })
         .map_err(|e| GpuError::Runtime(e.to_string()))?;
-    Ok(format!("{}\n{}", module.source, template(&d.filter.name)))
+    Ok(module.source)
+}
+
+/// [min, max] of the spline over each block of `block`^3 unit cubes of the
+/// volume (x fastest) with the emitted `<f>_minmax_main` of `shader`,
+/// dispatched in z-slabs of blocks so that no dispatch exceeds 65535
+/// workgroups (block 1, one bound per cell, on a large volume).
+pub(crate) fn block_bounds(
+    gpu: &Gpu,
+    shader: &wgpu::ShaderModule,
+    name: &str,
+    dv: &DeviceVolume,
+    dims: [usize; 3],
+    block: i32,
+) -> Result<Vec<[f32; 2]>, GpuError> {
+    let dev = &gpu.device;
+    let blocks = dims.map(|n| (n as i32 + block - 1) / block);
+    let slab = (blocks[0] * blocks[1]) as usize;
+    let nblocks = slab * blocks[2] as usize;
+    let out_binding = if dv.layout == Layout::Packed { 2 } else { 1 };
+    let mut entries0 = dv.layout_entries(0, wgpu::ShaderStages::COMPUTE);
+    entries0.push(storage_entry(out_binding, false));
+    entries0.push(uniform_entry(out_binding + 1));
+    let bgl_mm =
+        dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("minmax"), entries: &entries0 });
+    let minmax = gpu.pipeline("minmax", shader, &[&bgl_mm], &format!("{name}_minmax_main"))?;
+    let slabs_per_dispatch = ((65535 * 64) / slab.max(1)).max(1) as i32;
+    let mut bounds = Vec::with_capacity(nblocks);
+    let mut z0 = 0;
+    while z0 < blocks[2] {
+        let nz = slabs_per_dispatch.min(blocks[2] - z0);
+        let count = slab * nz as usize;
+        let blocks_buf = gpu.storage_buffer("blocks", &vec![0u8; count * 8], true);
+        let job: [i32; 8] = [0, 0, z0 * block, 0, blocks[0], blocks[1], nz, block];
+        let job_buf = gpu.uniform_buffer("job", bytemuck::cast_slice(&job));
+        let mut bind0 = dv.bind_entries(0);
+        bind0.push(wgpu::BindGroupEntry { binding: out_binding, resource: blocks_buf.as_entire_binding() });
+        bind0.push(wgpu::BindGroupEntry { binding: out_binding + 1, resource: job_buf.as_entire_binding() });
+        let bg_mm = dev.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("minmax"),
+            layout: &bgl_mm,
+            entries: &bind0,
+        });
+        gpu.dispatch("minmax", &minmax, &[&bg_mm], ((count as u32).div_ceil(64), 1, 1))?;
+        let raw: Vec<f32> = bytemuck::cast_slice(&gpu.read_buffer(&blocks_buf)?).to_vec();
+        bounds.extend(raw.chunks(2).map(|b| [b[0], b[1]]));
+        z0 += nz;
+    }
+    Ok(bounds)
 }
 
 /// Per-block flags (1 = every value in the block maps to zero opacity) from
@@ -206,14 +267,15 @@ pub fn skip_flags(empty: &[u32], blocks: [i32; 3], radius: i32) -> Vec<u32> {
 /// and the block [min, max] grid (computed once; each [`DvrScene::render`]
 /// takes a transfer function and options).
 pub struct DvrScene<'a> {
-    gpu: &'a Gpu,
-    d: &'a Derivation,
-    vol: &'a LatticeVolume,
+    pub(crate) gpu: &'a Gpu,
+    pub(crate) d: &'a Derivation,
+    pub(crate) vol: &'a LatticeVolume,
     block: i32,
     pipeline: wgpu::ComputePipeline,
     bgl_rc: wgpu::BindGroupLayout,
-    bg_s: wgpu::BindGroup,
-    _dv: DeviceVolume,
+    pub(crate) bgl_s: wgpu::BindGroupLayout,
+    pub(crate) bg_s: wgpu::BindGroup,
+    pub(crate) dv: DeviceVolume,
     /// [min, max] of the spline over each block (x fastest).
     pub bounds: Vec<[f32; 2]>,
 }
@@ -232,30 +294,7 @@ impl<'a> DvrScene<'a> {
         let shader = gpu.compile(&format!("{name}.dvr.wgsl"), &shader_source(d, layout)?)?;
         let dev = &gpu.device;
         let dv = DeviceVolume::new(gpu, vol, layout)?;
-        let blocks = vol.dims.map(|n| (n as i32 + block - 1) / block);
-        let nblocks = (blocks[0] * blocks[1] * blocks[2]) as usize;
-        // The block grid, as render.rs builds it for the iso renderer.
-        let out_binding = if layout == Layout::Packed { 2 } else { 1 };
-        let mut entries0 = dv.layout_entries(0, wgpu::ShaderStages::COMPUTE);
-        entries0.push(storage_entry(out_binding, false));
-        entries0.push(uniform_entry(out_binding + 1));
-        let bgl_mm = dev
-            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("minmax"), entries: &entries0 });
-        let blocks_buf = gpu.storage_buffer("blocks", &vec![0u8; nblocks * 8], true);
-        let job: [i32; 8] = [0, 0, 0, 0, blocks[0], blocks[1], blocks[2], block];
-        let job_buf = gpu.uniform_buffer("job", bytemuck::cast_slice(&job));
-        let mut bind0 = dv.bind_entries(0);
-        bind0.push(wgpu::BindGroupEntry { binding: out_binding, resource: blocks_buf.as_entire_binding() });
-        bind0.push(wgpu::BindGroupEntry { binding: out_binding + 1, resource: job_buf.as_entire_binding() });
-        let bg_mm = dev.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("minmax"),
-            layout: &bgl_mm,
-            entries: &bind0,
-        });
-        let minmax = gpu.pipeline("minmax", &shader, &[&bgl_mm], &format!("{name}_minmax_main"))?;
-        gpu.dispatch("minmax", &minmax, &[&bg_mm], ((nblocks as u32).div_ceil(64), 1, 1))?;
-        let raw: Vec<f32> = bytemuck::cast_slice(&gpu.read_buffer(&blocks_buf)?).to_vec();
-        let bounds = raw.chunks(2).map(|b| [b[0], b[1]]).collect();
+        let bounds = block_bounds(gpu, &shader, name, &dv, vol.dims, block)?;
 
         let bgl_s = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("samples"),
@@ -263,13 +302,7 @@ impl<'a> DvrScene<'a> {
         });
         let bgl_rc = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("dvr"),
-            entries: &[
-                uniform_entry(0),
-                storage_entry(1, false),
-                storage_entry(2, true),
-                storage_entry(3, true),
-                storage_entry(4, true),
-            ],
+            entries: &caster_entries(),
         });
         let pipeline = gpu.pipeline("dvr", &shader, &[&bgl_s, &bgl_rc], &format!("{name}_dvr_main"))?;
         let bg_s = dev.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -277,7 +310,7 @@ impl<'a> DvrScene<'a> {
             layout: &bgl_s,
             entries: &dv.bind_entries(0),
         });
-        Ok(DvrScene { gpu, d, vol, block, pipeline, bgl_rc, bg_s, _dv: dv, bounds })
+        Ok(DvrScene { gpu, d, vol, block, pipeline, bgl_rc, bgl_s, bg_s, dv, bounds })
     }
 
     /// Renders one image (a warm-up frame, then `o.frames` timed frames);
@@ -292,6 +325,18 @@ impl<'a> DvrScene<'a> {
     /// [`DvrScene::render`] with tables already built (the pre-integration
     /// table must be for `o.step`; None renders without pre-integration).
     pub fn render_tables(&self, table: &Tf1d, pi: Option<&Preint>, o: &DvrOptions) -> Result<Frame, GpuError> {
+        self.render_with(table, pi, o, None)
+    }
+
+    /// [`DvrScene::render_tables`] with the scene's ray caster, or another
+    /// one (the PERM cache's, [`crate::perm`]).
+    pub(crate) fn render_with(
+        &self,
+        table: &Tf1d,
+        pi: Option<&Preint>,
+        o: &DvrOptions,
+        caster: Option<Caster<'_>>,
+    ) -> Result<Frame, GpuError> {
         let (gpu, dev) = (self.gpu, &self.gpu.device);
         if o.block != self.block {
             return Err(GpuError::Runtime(format!(
@@ -319,20 +364,24 @@ impl<'a> DvrScene<'a> {
         let flags_buf = gpu.storage_buffer("dvr flags", bytemuck::cast_slice(&flags), false);
         let tf_buf = gpu.storage_buffer("dvr tf", bytemuck::cast_slice(&table.entries), false);
         let pi_buf = gpu.storage_buffer("dvr preint", bytemuck::cast_slice(&pi_entries), false);
-        let bg_rc = dev.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: None,
-            layout: &self.bgl_rc,
-            entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: params_buf.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 1, resource: image.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 2, resource: flags_buf.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 3, resource: tf_buf.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 4, resource: pi_buf.as_entire_binding() },
-            ],
-        });
+        let mut entries = vec![
+            wgpu::BindGroupEntry { binding: 0, resource: params_buf.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 1, resource: image.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 2, resource: flags_buf.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 3, resource: tf_buf.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 4, resource: pi_buf.as_entire_binding() },
+        ];
+        let (pipeline, layout) = match caster {
+            Some(c) => {
+                entries.extend(c.extra);
+                (c.pipeline, c.bgl)
+            }
+            None => (&self.pipeline, &self.bgl_rc),
+        };
+        let bg_rc = dev.create_bind_group(&wgpu::BindGroupDescriptor { label: None, layout, entries: &entries });
         let times = crate::render::timed_banded_frames(
             gpu,
-            &self.pipeline,
+            pipeline,
             [&self.bg_s, &bg_rc],
             (&params_buf, params, |p: &mut DvrParams, y0| p.image[3] = y0 as i32),
             (o.width, o.height, if o.progress { 16 } else { o.height }),
@@ -344,6 +393,25 @@ impl<'a> DvrScene<'a> {
         let ms = if times.is_empty() { f64::NAN } else { times[times.len() / 2] };
         Ok(Frame { width: o.width, height: o.height, rgba, ms_per_frame: ms, empty_blocks: empty })
     }
+}
+
+/// The group-1 layout entries of the ray caster (bindings 0 to 4).
+pub(crate) fn caster_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
+    vec![
+        uniform_entry(0),
+        storage_entry(1, false),
+        storage_entry(2, true),
+        storage_entry(3, true),
+        storage_entry(4, true),
+    ]
+}
+
+/// A ray caster other than the scene's own: its pipeline, its group-1
+/// layout and the group-1 entries it adds after binding 4.
+pub(crate) struct Caster<'b> {
+    pub pipeline: &'b wgpu::ComputePipeline,
+    pub bgl: &'b wgpu::BindGroupLayout,
+    pub extra: Vec<wgpu::BindGroupEntry<'b>>,
 }
 
 /// One DVR image on the device (a [`DvrScene`] for a single render).
@@ -500,7 +568,7 @@ mod tests {
     fn the_uniform_matches_the_template_struct() {
         // Every field of `<f>_DvrParams` is a vec4 (16 bytes, no padding), in
         // the order of DvrParams.
-        let t = template("f");
+        let t = template("f", false);
         let body = t.split("struct f_DvrParams {").nth(1).unwrap().split('}').next().unwrap();
         let fields: Vec<&str> = body.lines().map(str::trim).filter(|l| !l.is_empty() && !l.starts_with("//")).collect();
         assert!(fields.iter().all(|f| f.ends_with("vec4<f32>,") || f.ends_with("vec4<i32>,")), "{fields:?}");

@@ -5,6 +5,7 @@
 pub mod bench;
 pub mod dvr;
 pub mod gpu;
+pub mod perm;
 pub mod pictures;
 pub mod prefilter;
 pub mod progress;

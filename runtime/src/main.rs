@@ -138,6 +138,16 @@ enum Command {
         /// --mode dvr: point-sample the transfer function (opacity-corrected) instead of pre-integrating.
         #[arg(long)]
         no_preintegration: bool,
+        /// --mode dvr: none, or perm (precompute density and gradient at quantized positions of the cells
+        /// the transfer function shows, and look them up; Lim and Shin's PERM).
+        #[arg(long, default_value = "none")]
+        cache: String,
+        /// --cache perm: density positions per cell axis (N^3 per cell; default 5).
+        #[arg(long)]
+        qc: Option<u32>,
+        /// --cache perm: gradient positions per cell axis (M^3 per cell; default --qc).
+        #[arg(long)]
+        qc_grad: Option<u32>,
         #[arg(long)]
         filter: String,
         /// `ml:N` (Marschner-Lobb, about N^3 samples), a .nii/.nii.gz file, or a raw file with --raw.
@@ -299,6 +309,9 @@ fn run(cli: Cli) -> Result<(), Failure> {
             mode,
             tf,
             no_preintegration,
+            cache,
+            qc,
+            qc_grad,
             filter,
             volume,
             raw,
@@ -320,6 +333,7 @@ fn run(cli: Cli) -> Result<(), Failure> {
             request::check_render_numbers(size, step, iso, az, el).map_err(Failure)?;
             request::check_output_file(&out, "--out").map_err(Failure)?;
             let dvr = request::check_render_mode(&mode, tf.as_deref(), no_preintegration).map_err(Failure)?;
+            let perm = boxforge_runtime::perm::check_request(&cache, &mode, qc, qc_grad).map_err(Failure)?;
             let tf = match &dvr {
                 Some(name) => Some(boxforge_runtime::transfer::TransferFunction::load(name).map_err(Failure)?),
                 None => None,
@@ -382,7 +396,23 @@ fn run(cli: Cli) -> Result<(), Failure> {
                         frames: 1,
                         ..Default::default()
                     };
-                    boxforge_runtime::dvr::render(&gpu, &d, &vol, layout, tf, &o)
+                    match perm {
+                        Some(q) => boxforge_runtime::perm::render(&gpu, &d, &vol, layout, tf, &o, q).map(|(f, c)| {
+                            let n = c.counts;
+                            eprintln!(
+                                "PERM N={} M={}: {} of {} cells cached ({} visible), {:.0} ms preprocessing, {}",
+                                q.density,
+                                q.gradient,
+                                n.candidates,
+                                n.cells,
+                                c.visible.iter().filter(|&&v| v).count(),
+                                c.preprocess_ms,
+                                c.memory.describe()
+                            );
+                            f
+                        }),
+                        None => boxforge_runtime::dvr::render(&gpu, &d, &vol, layout, tf, &o),
+                    }
                 }
                 None => render::render(&gpu, &d, &vol, layout, &opts),
             }

@@ -1,0 +1,598 @@
+//! PERM (`render --mode dvr --cache perm --qc N [--qc-grad M]`): Lim and
+//! Shin's precomputed density and gradient map. Before rendering, the
+//! density and the analytic gradient (the emitted `<f>_eval_grad`) are
+//! computed on the device at N^3 (density) and M^3 (gradient, the paper's
+//! unequal quantization) positions in every candidate cell; the ray caster
+//! of [`crate::dvr`] then reads the nearest position instead of evaluating
+//! the spline (templates/perm.wgsl.j2 for the lookup and the formats,
+//! templates/perm_build.wgsl.j2 for the preprocessing).
+//!
+//! Cells are the unit cubes of the empty-space-skipping grid. A cell is
+//! *visible* when the transfer function is not transparent over its
+//! [min, max] (the emitted min/max kernel with a block edge of 1, judged by
+//! [`Tf1d::transparent`] as the skipping is). With pre-integration a segment
+//! integrates the ramp between its two end values, so a segment from a
+//! visible cell into a transparent neighbour needs that neighbour's true
+//! value: the candidates are the visible cells dilated by ceil(step) cells
+//! (Chebyshev), which holds every end of every segment touching a visible
+//! cell; without pre-integration only the back value matters and the
+//! candidates are the visible cells. Any other cell keeps one substitute
+//! value in its index-volume entry (the middle of its [min, max], which the
+//! transfer function maps to zero), so segments between non-candidates
+//! integrate to zero, as they do exactly.
+//!
+//! The index volume has one 16-bit entry per cell and a summed-area table
+//! (prefix counts) per row of x rather than per z-slice as in the paper: a
+//! row has fewer than 32768 cells, so the entry's 15 bits always suffice.
+//! Memory follows the paper's equations 3 and 6 with b_iv = 2, b_db = 2,
+//! b_gb = 1, b_sb = 1, plus the table's 4 bytes per row ([`formula`]);
+//! [`PermCache::memory`] reports the allocated buffers' sizes.
+//!
+//! Opaque-boundary peeling (the paper's section 5) is not done: early ray
+//! termination already stops rays at opaque boundaries, and peeling makes the
+//! cache view-dependent.
+
+use crate::dvr::{block_bounds, caster_entries, filter_module, shader_source_with, Caster, DvrOptions, DvrScene};
+use crate::gpu::{Gpu, GpuError};
+use crate::render::Frame;
+use crate::transfer::{Preint, Tf1d, TransferFunction};
+use crate::upload::{storage_entry, uniform_entry};
+use std::time::Instant;
+use wgpu::util::DeviceExt;
+
+/// Bytes of one index-volume entry (b_iv).
+pub const B_IV: u64 = 2;
+/// Bytes of one summed-area-table entry (per row of x).
+pub const B_SAT: u64 = 4;
+/// Bytes of one density (b_db): 16-bit fixed point over the TF range.
+pub const B_DB: u64 = 2;
+/// Bytes of one gradient component's magnitude (b_gb).
+pub const B_GB: u64 = 1;
+/// Bytes of one gradient's sign field (b_sb).
+pub const B_SB: u64 = 1;
+/// The largest cache (bytes) `--qc` may ask for: the size one storage
+/// buffer may safely have and the range of the shader's u32 indices.
+pub const MAX_BYTES: u64 = 1 << 31;
+/// Cells per row the 15-bit in-row index can address.
+pub const MAX_ROW: usize = 1 << 15;
+/// The paper's density quantization (`--qc` default).
+pub const DEFAULT_QC: u32 = 5;
+
+/// Quantized positions per cell axis.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Quant {
+    /// N: density positions per axis (N^3 per cell).
+    pub density: u32,
+    /// M: gradient positions per axis (M^3 per cell).
+    pub gradient: u32,
+}
+
+/// The sizes the memory formula is applied to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Counts {
+    /// S: cells of the volume.
+    pub cells: u64,
+    /// Rows of x (entries of the summed-area table).
+    pub rows: u64,
+    /// N_cc: candidate cells.
+    pub candidates: u64,
+    /// N and M.
+    pub quant: Quant,
+}
+
+/// Bytes per part of the cache.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Memory {
+    /// Index volume (IV).
+    pub index_volume: u64,
+    /// Summed-area table.
+    pub summed_area: u64,
+    /// Density buffer (DB).
+    pub density: u64,
+    /// Gradient magnitudes (GB).
+    pub gradient: u64,
+    /// Gradient signs (SB).
+    pub sign: u64,
+}
+
+impl Memory {
+    /// All parts.
+    pub fn total(&self) -> u64 {
+        self.index_volume + self.summed_area + self.density + self.gradient + self.sign
+    }
+
+    /// One line, bytes per part.
+    pub fn describe(&self) -> String {
+        format!(
+            "{} bytes (index volume {}, summed-area table {}, densities {}, gradients {}, signs {})",
+            self.total(),
+            self.index_volume,
+            self.summed_area,
+            self.density,
+            self.gradient,
+            self.sign
+        )
+    }
+}
+
+/// The paper's equation 6 (equation 3 when N = M) with our byte sizes, plus
+/// the summed-area table: S b_iv + rows b_sat + N_cc N^3 b_db +
+/// N_cc M^3 (3 b_gb + b_sb).
+pub fn formula(c: &Counts) -> Memory {
+    let (n3, m3) = (u64::from(c.quant.density).pow(3), u64::from(c.quant.gradient).pow(3));
+    Memory {
+        index_volume: c.cells * B_IV,
+        summed_area: c.rows * B_SAT,
+        density: c.candidates * n3 * B_DB,
+        gradient: c.candidates * m3 * 3 * B_GB,
+        sign: c.candidates * m3 * B_SB,
+    }
+}
+
+/// The `--cache`, `--qc` and `--qc-grad` options, checked before any GPU
+/// work: `None` for `--cache none`. The memory check here is the cache of
+/// a single candidate cell (a lower bound); [`PermCache::build`] checks the
+/// exact size once the candidates are known.
+pub fn check_request(cache: &str, mode: &str, qc: Option<u32>, qc_grad: Option<u32>) -> Result<Option<Quant>, String> {
+    match cache {
+        "none" => {
+            return match (qc, qc_grad) {
+                (None, None) => Ok(None),
+                _ => Err("--qc and --qc-grad size the PERM cache: add --cache perm (with --mode dvr)".into()),
+            }
+        }
+        "perm" => {}
+        other => return Err(format!("--cache {other}: unknown cache; use --cache none or --cache perm")),
+    }
+    if mode != "dvr" {
+        return Err(format!(
+            "--cache perm precomputes the values direct volume rendering samples; --mode {mode} has no such cache: add --mode dvr --tf ..., or drop --cache perm"
+        ));
+    }
+    let n = qc.unwrap_or(DEFAULT_QC);
+    let quant = Quant { density: n, gradient: qc_grad.unwrap_or(n) };
+    for (flag, v) in [("--qc", quant.density), ("--qc-grad", quant.gradient)] {
+        if v == 0 {
+            return Err(format!(
+                "{flag} 0: a cell needs at least one quantized position per axis; use 1 or more (the paper uses 5, and 3 for gradients)"
+            ));
+        }
+    }
+    let one = formula(&Counts { cells: 0, rows: 0, candidates: 1, quant }).total();
+    if one > MAX_BYTES {
+        let largest = (1..)
+            .take_while(|&k| {
+                formula(&Counts { cells: 0, rows: 0, candidates: 1, quant: Quant { density: k, gradient: k } }).total()
+                    <= MAX_BYTES
+            })
+            .last()
+            .unwrap_or(1);
+        return Err(format!(
+            "--qc {} --qc-grad {}: one candidate cell alone needs {one} bytes of PERM cache ({}^3 x {B_DB} + {}^3 x {}), over the limit of {MAX_BYTES} bytes; use --qc {largest} or less",
+            quant.density,
+            quant.gradient,
+            quant.density,
+            quant.gradient,
+            3 * B_GB + B_SB
+        ));
+    }
+    Ok(Some(quant))
+}
+
+/// Which cells are cached: visible cells (the transfer function is not
+/// transparent over the cell's [min, max]) dilated by `radius` cells.
+/// Returns (visible, candidate) flags, x fastest.
+pub fn select_cells(bounds: &[[f32; 2]], dims: [usize; 3], table: &Tf1d, radius: i32) -> (Vec<bool>, Vec<bool>) {
+    let empty: Vec<u32> = crate::dvr::empty_flags(bounds, table);
+    let visible = empty.iter().map(|&e| e == 0).collect();
+    // A cell is far from every visible cell when it and all cells within
+    // the radius are transparent: the skipping's min filter.
+    let far = crate::dvr::skip_flags(&empty, dims.map(|n| n as i32), radius);
+    (visible, far.iter().map(|&f| f == 0).collect())
+}
+
+/// The index volume and summed-area table of templates/perm.wgsl.j2.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Index {
+    /// 16-bit entries, two per word (cell 2i in the low half of word i).
+    pub words: Vec<u32>,
+    /// Per row of x: the candidates of all earlier rows.
+    pub sat: Vec<u32>,
+    /// Candidate cells in slot order (linear cell index).
+    pub cells: Vec<u32>,
+}
+
+/// The 15-bit substitute of a non-candidate cell: the middle of its
+/// [min, max] in fixed point over the table's range (clamped: the tables
+/// clamp too).
+fn substitute(b: [f32; 2], table: &Tf1d) -> u32 {
+    let mid = 0.5 * (b[0] as f64 + b[1] as f64);
+    let u = ((mid - table.lo as f64) / (table.hi as f64 - table.lo as f64)).clamp(0.0, 1.0);
+    if u.is_nan() {
+        return 0;
+    }
+    (u * 32767.0).round() as u32
+}
+
+/// Builds the index volume: candidates get their index within the row,
+/// others `0x8000 | substitute`.
+pub fn build_index(candidate: &[bool], bounds: &[[f32; 2]], dims: [usize; 3], table: &Tf1d) -> Index {
+    let nx = dims[0];
+    let rows = dims[1] * dims[2];
+    let mut entries = vec![0u32; candidate.len()];
+    let mut sat = Vec::with_capacity(rows);
+    let mut cells = Vec::new();
+    for r in 0..rows {
+        sat.push(cells.len() as u32);
+        let mut local = 0u32;
+        for x in 0..nx {
+            let i = r * nx + x;
+            if candidate[i] {
+                entries[i] = local;
+                local += 1;
+                cells.push(i as u32);
+            } else {
+                entries[i] = 0x8000 | substitute(bounds[i], table);
+            }
+        }
+    }
+    let words = entries.chunks(2).map(|p| p[0] | (p.get(1).copied().unwrap_or(0) << 16)).collect();
+    Index { words, sat, cells }
+}
+
+impl Index {
+    /// The slot of cell `i` as the shader finds it (None: not a candidate).
+    pub fn slot(&self, i: usize, nx: usize) -> Option<u32> {
+        let w = (self.words[i >> 1] >> ((i & 1) << 4)) & 0xffff;
+        (w & 0x8000 == 0).then(|| self.sat[i / nx] + (w & 0x7fff))
+    }
+}
+
+/// The uniform block of templates/perm.wgsl.j2.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct PermParams {
+    dims: [i32; 4],
+    quant: [u32; 4],
+    scale: [f32; 4],
+}
+
+/// The uniform block of templates/perm_build.wgsl.j2.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct BuildParams {
+    dims: [u32; 4],
+    counts: [u32; 4],
+    scale: [f32; 4],
+}
+
+fn template(file: &'static str, name: &str) -> String {
+    let mut env = minijinja::Environment::new();
+    env.add_template("t", file).expect("template");
+    env.get_template("t").unwrap().render(minijinja::context! { name => name }).expect("render")
+}
+
+/// A PERM cache on the device for one scene, transfer function, step and
+/// pre-integration choice, with its ray-casting pipeline.
+pub struct PermCache {
+    /// The counts the memory formula applies to.
+    pub counts: Counts,
+    /// Visible cells (before the dilation), x fastest.
+    pub visible: Vec<bool>,
+    /// Bytes per part: the allocated buffers (gradient magnitudes and signs
+    /// share one buffer of words, split 3 : 1).
+    pub memory: Memory,
+    /// Wall time of the preprocessing: cell bounds, selection, index, the
+    /// density and gradient passes (ms).
+    pub preprocess_ms: f64,
+    /// Largest |gradient component| (the gradient bytes' full scale).
+    pub gmax: f32,
+    /// The index volume and summed-area table, as uploaded.
+    pub index: Index,
+    step: f32,
+    preintegrate: bool,
+    table: Vec<[f32; 4]>,
+    pipeline: wgpu::ComputePipeline,
+    bgl: wgpu::BindGroupLayout,
+    params: wgpu::Buffer,
+    buffers: [wgpu::Buffer; 4],
+}
+
+/// A storage buffer of `bytes` (at least 4) zeroed bytes, readable back.
+fn zeroed(gpu: &Gpu, label: &str, bytes: u64) -> wgpu::Buffer {
+    gpu.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size: bytes.max(4).div_ceil(4) * 4,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
+}
+
+/// Workgroups (x, y) of 64 threads covering `threads`, and threads per row.
+fn grid(threads: u64) -> ((u32, u32, u32), u32) {
+    let groups = threads.div_ceil(64).max(1);
+    let gx = groups.min(65535);
+    ((gx as u32, groups.div_ceil(gx) as u32, 1), (gx * 64) as u32)
+}
+
+impl PermCache {
+    /// Preprocesses `scene` for `table` and segments of `step` (dilation
+    /// ceil(step) with pre-integration).
+    pub fn build(
+        scene: &DvrScene,
+        table: &Tf1d,
+        quant: Quant,
+        step: f32,
+        preintegrate: bool,
+    ) -> Result<PermCache, GpuError> {
+        let start = Instant::now();
+        let (gpu, d, vol) = (scene.gpu, scene.d, scene.vol);
+        let dev = &gpu.device;
+        let name = &d.filter.name;
+        let dims = vol.dims;
+        if dims[0] > MAX_ROW {
+            return Err(GpuError::Runtime(format!(
+                "--cache perm: the volume is {} cells along x, over the {MAX_ROW} a 15-bit row index addresses",
+                dims[0]
+            )));
+        }
+        let layout = scene.dv.layout;
+        let build_src = format!(
+            "{}\n{}",
+            filter_module(d, layout)?,
+            template(include_str!("../../templates/perm_build.wgsl.j2"), name)
+        );
+        let build = gpu.compile(&format!("{name}.perm_build.wgsl"), &build_src)?;
+        let bounds = block_bounds(gpu, &build, name, &scene.dv, dims, 1)?;
+        let radius = if preintegrate { step.ceil() as i32 } else { 0 };
+        let (visible, candidate) = select_cells(&bounds, dims, table, radius);
+        let index = build_index(&candidate, &bounds, dims, table);
+        let counts = Counts {
+            cells: (dims[0] * dims[1] * dims[2]) as u64,
+            rows: (dims[1] * dims[2]) as u64,
+            candidates: index.cells.len() as u64,
+            quant,
+        };
+        let need = formula(&counts);
+        let limit =
+            MAX_BYTES.min(gpu.limits().max_storage_buffer_binding_size as u64).min(gpu.limits().max_buffer_size);
+        if need.total() > limit {
+            return Err(GpuError::Runtime(format!(
+                "--qc {} --qc-grad {}: the PERM cache of {} candidate cells needs {}, over the limit of {limit} bytes; use a smaller --qc or --qc-grad",
+                quant.density,
+                quant.gradient,
+                counts.candidates,
+                need.describe()
+            )));
+        }
+        let span = table.hi - table.lo;
+        let (n3, m3) = (quant.density.pow(3) as u64, quant.gradient.pow(3) as u64);
+        let (nd, ng) = (counts.candidates * n3, counts.candidates * m3);
+        let iv = gpu.storage_buffer("perm index volume", bytemuck::cast_slice(&index.words), false);
+        let sat = gpu.storage_buffer("perm summed-area table", bytemuck::cast_slice(&index.sat), false);
+        let cells_buf = gpu.storage_buffer("perm cells", bytemuck::cast_slice(&index.cells), false);
+        let db = zeroed(gpu, "perm densities", nd * B_DB);
+        let gb = zeroed(gpu, "perm gradients", ng * (3 * B_GB + B_SB));
+        let gmax_buf = gpu.storage_buffer("perm gmax", &[0u8; 4], true);
+        let bgl_b = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("perm build"),
+            entries: &[uniform_entry(0), storage_entry(1, true), storage_entry(2, false), storage_entry(3, false)],
+        });
+        let pass = |entry: &str, out: &wgpu::Buffer, n: u32, threads: u64, positions: u64, scale: [f32; 4]| {
+            let (groups, row) = grid(threads);
+            let p = BuildParams {
+                dims: [dims[0] as u32, dims[1] as u32, dims[2] as u32, counts.candidates as u32],
+                counts: [n, n.pow(3), positions as u32, row],
+                scale,
+            };
+            let pbuf = gpu.uniform_buffer("perm build params", bytemuck::bytes_of(&p));
+            let bg = dev.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("perm build"),
+                layout: &bgl_b,
+                entries: &[
+                    wgpu::BindGroupEntry { binding: 0, resource: pbuf.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 1, resource: cells_buf.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 2, resource: out.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 3, resource: gmax_buf.as_entire_binding() },
+                ],
+            });
+            let pipe = gpu.pipeline(entry, &build, &[&scene.bgl_s, &bgl_b], &format!("{name}_{entry}"))?;
+            if threads > 0 {
+                gpu.dispatch(entry, &pipe, &[&scene.bg_s, &bg], groups)?;
+            }
+            gpu.wait()
+        };
+        let units = 65535.0 / span;
+        pass("perm_density_main", &db, quant.density, nd.div_ceil(2), nd, [table.lo, units, 0.0, 0.0])?;
+        let dummy = zeroed(gpu, "perm unused", 4);
+        pass("perm_gmax_main", &dummy, quant.gradient, ng, ng, [0.0; 4])?;
+        let gmax = f32::from_bits(u32::from_le_bytes(gpu.read_buffer(&gmax_buf)?[..4].try_into().unwrap()));
+        let gscale = if gmax > 0.0 { 255.0 / gmax } else { 0.0 };
+        pass("perm_gradient_main", &gb, quant.gradient, ng, ng, [0.0, 0.0, gscale, 0.0])?;
+        let preprocess_ms = start.elapsed().as_secs_f64() * 1e3;
+
+        let render_src = format!(
+            "{}\n{}",
+            shader_source_with(d, layout, true)?,
+            template(include_str!("../../templates/perm.wgsl.j2"), name)
+        );
+        let shader = gpu.compile(&format!("{name}.dvr_perm.wgsl"), &render_src)?;
+        let mut entries = caster_entries();
+        entries.extend([
+            uniform_entry(5),
+            storage_entry(6, true),
+            storage_entry(7, true),
+            storage_entry(8, true),
+            storage_entry(9, true),
+        ]);
+        let bgl = dev
+            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("dvr perm"), entries: &entries });
+        let pipeline = gpu.pipeline("dvr perm", &shader, &[&scene.bgl_s, &bgl], &format!("{name}_dvr_main"))?;
+        let params = PermParams {
+            dims: [dims[0] as i32, dims[1] as i32, dims[2] as i32, 0],
+            quant: [quant.density, quant.gradient, n3 as u32, m3 as u32],
+            scale: [table.lo, span / 65535.0, span / 32767.0, gmax / 255.0],
+        };
+        let params = dev.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("perm params"),
+            contents: bytemuck::bytes_of(&params),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let g = gb.size();
+        let memory = Memory {
+            index_volume: iv.size(),
+            summed_area: sat.size(),
+            density: db.size(),
+            gradient: g / 4 * 3,
+            sign: g / 4,
+        };
+        Ok(PermCache {
+            counts,
+            visible,
+            memory,
+            preprocess_ms,
+            gmax,
+            index,
+            step,
+            preintegrate,
+            table: table.entries.clone(),
+            pipeline,
+            bgl,
+            params,
+            buffers: [iv, sat, db, gb],
+        })
+    }
+
+    /// The densities as stored (16-bit fixed point, decoded to values).
+    pub fn densities(&self, gpu: &Gpu, table: &Tf1d) -> Result<Vec<f32>, GpuError> {
+        let words: Vec<u32> = bytemuck::cast_slice(&gpu.read_buffer(&self.buffers[2])?).to_vec();
+        let unit = (table.hi - table.lo) / 65535.0;
+        let n = self.counts.candidates as usize * self.counts.quant.density.pow(3) as usize;
+        Ok((0..n).map(|m| table.lo + unit * ((words[m >> 1] >> ((m & 1) << 4)) & 0xffff) as f32).collect())
+    }
+
+    /// Renders with the cache (the same tables it was built for).
+    pub fn render(
+        &self,
+        scene: &DvrScene,
+        table: &Tf1d,
+        pi: Option<&Preint>,
+        o: &DvrOptions,
+    ) -> Result<Frame, GpuError> {
+        if table.entries != self.table || o.step > self.step || pi.is_some() != self.preintegrate {
+            return Err(GpuError::Runtime(format!(
+                "this PERM cache was built for another transfer function or for step {} (pre-integrated: {}); build one for these options",
+                self.step, self.preintegrate
+            )));
+        }
+        let b = &self.buffers;
+        let extra = vec![
+            wgpu::BindGroupEntry { binding: 5, resource: self.params.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 6, resource: b[0].as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 7, resource: b[1].as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 8, resource: b[2].as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 9, resource: b[3].as_entire_binding() },
+        ];
+        scene.render_with(table, pi, o, Some(Caster { pipeline: &self.pipeline, bgl: &self.bgl, extra }))
+    }
+}
+
+/// One PERM image (`render --cache perm`): the scene, the cache, a render.
+pub fn render(
+    gpu: &Gpu,
+    d: &boxforge::derive::Derivation,
+    vol: &crate::volume::LatticeVolume,
+    layout: boxforge::emit::Layout,
+    tf: &TransferFunction,
+    o: &DvrOptions,
+    quant: Quant,
+) -> Result<(Frame, PermCache), GpuError> {
+    let scene = DvrScene::new(gpu, d, vol, layout, o.block)?;
+    let table = tf.table();
+    let pi = o.preintegrate.then(|| table.preintegrate(o.step as f64));
+    let cache = PermCache::build(&scene, &table, quant, o.step, o.preintegrate)?;
+    let frame = cache.render(&scene, &table, pi.as_ref(), o)?;
+    Ok((frame, cache))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bad_requests_are_refused_with_the_flag_named() {
+        assert_eq!(check_request("none", "dvr", None, None), Ok(None));
+        assert_eq!(check_request("perm", "dvr", None, None), Ok(Some(Quant { density: 5, gradient: 5 })));
+        assert_eq!(check_request("perm", "dvr", Some(5), Some(3)), Ok(Some(Quant { density: 5, gradient: 3 })));
+        for (cache, mode, qc, qg, fragment) in [
+            ("perm", "dvr", Some(0), None, "--qc 0"),
+            ("perm", "dvr", Some(4), Some(0), "--qc-grad 0"),
+            ("perm", "dvr", Some(1000), None, "over the limit of 2147483648 bytes"),
+            ("perm", "iso", None, None, "--mode iso"),
+            ("lru", "dvr", None, None, "--cache lru"),
+            ("none", "dvr", Some(5), None, "add --cache perm"),
+        ] {
+            let e = check_request(cache, mode, qc, qg).unwrap_err();
+            assert!(e.contains(fragment) && !e.contains('\n'), "{e}");
+        }
+        // The refusal names the bytes: 1000^3 x 2 + 1000^3 x 4.
+        assert!(check_request("perm", "dvr", Some(1000), None).unwrap_err().contains("6000000000 bytes"));
+        // The largest accepted N is the one the message suggests.
+        let e = check_request("perm", "dvr", Some(1000), None).unwrap_err();
+        let largest: u32 = e.rsplit("--qc ").next().unwrap().split(' ').next().unwrap().parse().unwrap();
+        assert!(check_request("perm", "dvr", Some(largest), None).is_ok());
+        assert!(check_request("perm", "dvr", Some(largest + 1), None).is_err());
+    }
+
+    #[test]
+    fn the_index_finds_every_candidate_and_keeps_substitutes_transparent() {
+        let tf = TransferFunction::parse(
+            r#"{"range": [0, 1], "points": [{"value": 0, "color": [0, 0, 0], "opacity": 0},
+                {"value": 0.3, "color": [0, 0, 0], "opacity": 0}, {"value": 0.5, "color": [1, 1, 1], "opacity": 0.8}]}"#,
+            "t",
+        )
+        .unwrap()
+        .table();
+        let dims = [5, 3, 2];
+        // Cell bounds: a visible cell at (2, 1, 1), everything else clear.
+        let mut bounds = vec![[0.0f32, 0.05]; 30];
+        bounds[2 + 5 * (1 + 3)] = [0.2, 0.8];
+        let (visible, candidate) = select_cells(&bounds, dims, &tf, 1);
+        assert_eq!(visible.iter().filter(|&&v| v).count(), 1);
+        // Brute-force dilation.
+        for z in 0..2i32 {
+            for y in 0..3i32 {
+                for x in 0..5i32 {
+                    let near = (x - 2).abs() <= 1 && (y - 1).abs() <= 1 && (z - 1).abs() <= 1;
+                    assert_eq!(candidate[(x + 5 * (y + 3 * z)) as usize], near, "({x}, {y}, {z})");
+                }
+            }
+        }
+        let index = build_index(&candidate, &bounds, dims, &tf);
+        let mut seen = vec![];
+        for (i, &c) in candidate.iter().enumerate() {
+            match index.slot(i, 5) {
+                Some(s) => {
+                    assert!(c);
+                    assert_eq!(index.cells[s as usize], i as u32);
+                    seen.push(s);
+                }
+                None => {
+                    assert!(!c);
+                    let w = (index.words[i >> 1] >> ((i & 1) << 4)) & 0x7fff;
+                    let v = tf.lo + (tf.hi - tf.lo) * w as f32 / 32767.0;
+                    assert!((v - 0.025).abs() < 1e-4 && tf.transparent(v as f64, v as f64));
+                }
+            }
+        }
+        seen.sort();
+        assert_eq!(seen, (0..index.cells.len() as u32).collect::<Vec<_>>(), "slots are 0..N_cc, each once");
+    }
+
+    #[test]
+    fn the_formula_is_equation_six() {
+        let c = Counts { cells: 1000, rows: 100, candidates: 10, quant: Quant { density: 5, gradient: 3 } };
+        let m = formula(&c);
+        assert_eq!(m.total(), 1000 * 2 + 100 * 4 + 10 * 125 * 2 + 10 * 27 * 3 + 10 * 27);
+    }
+}
