@@ -7,6 +7,7 @@ pub mod dvr;
 pub mod gpu;
 pub mod pictures;
 pub mod prefilter;
+pub mod pt;
 pub mod progress;
 pub mod render;
 pub mod request;
