@@ -356,7 +356,8 @@ mod tests {
                     }
                     let d = |a: [i64; 3], b: [i64; 3]| [0, 1, 2].map(|i| (a[i] - b[i]) as f64);
                     let (e1, e2) = (d(f[1], f[0]), d(f[2], f[0]));
-                    let n = [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]];
+                    let n =
+                        [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]];
                     let side = |p: [i64; 3]| (0..3).map(|i| n[i] * d(p, f[0])[i]).sum::<f64>();
                     let nf: f64 = (0..3).map(|i| n[i] * fw[i]).sum();
                     let ((ka, a), (kb, _)) = (users[0], users[1]);
@@ -368,7 +369,12 @@ mod tests {
                     }
                 }
                 bad.sort();
-                assert!(bad.is_empty(), "{grid:?} view {fw:?}: {} faces out of order, e.g. {:?}", bad.len(), &bad[..bad.len().min(3)]);
+                assert!(
+                    bad.is_empty(),
+                    "{grid:?} view {fw:?}: {} faces out of order, e.g. {:?}",
+                    bad.len(),
+                    &bad[..bad.len().min(3)]
+                );
             }
         }
     }
