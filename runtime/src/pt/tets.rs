@@ -307,7 +307,7 @@ mod tests {
         for t in bcc_types().iter().chain(cc_types().iter()) {
             let inv = inverse_edges(t);
             for k in 1..4 {
-                for c in 0..3 {
+                for (c, _) in inv.iter().enumerate() {
                     let v: f64 = (0..3).map(|i| (t[k][i] - t[0][i]) as f64 * inv[i][c]).sum();
                     assert!((v - (k - 1 == c) as i32 as f64).abs() < 1e-12);
                 }
@@ -323,20 +323,22 @@ mod tests {
         assert_eq!(c.base(o[0] as usize), [2, 0, 1]);
         assert_eq!(c.base(o[11] as usize), [0, 1, 0]);
     }
+
     #[test]
     fn the_order_puts_every_tetrahedron_behind_its_face_neighbours_first() {
         // Williams' MPVO condition: for two tetrahedra sharing a face, the one
         // on the far side of the face (along the view) is drawn first.
         use std::collections::HashMap;
+        /// Face (sorted vertices) -> (draw position, opposite vertex) of its tetrahedra.
+        type Faces = HashMap<[[i64; 3]; 3], Vec<(usize, [i64; 3])>>;
         let views = [[0.3, 0.5, 0.81], [-0.7, 0.2, -0.68], [0.57, -0.57, 0.59], [-0.1, -0.9, 0.42], [0.9, 0.1, -0.1]];
         for grid in [Grid::Bcc, Grid::Cc] {
             let types = grid.types();
             let cx = Complexes::cover(grid, [9, 9, 9]);
             let masks = vec![0xfffu16; cx.len()];
             for fw in views {
-                let mut pos: HashMap<[[i64; 3]; 3], Vec<(usize, [i64; 3])>> = HashMap::new();
-                let mut k = 0usize;
-                for id in cx.visible_back_to_front(&masks, fw) {
+                let mut pos: Faces = HashMap::new();
+                for (k, id) in cx.visible_back_to_front(&masks, fw).into_iter().enumerate() {
                     let (c, t) = ((id / 16) as usize, (id % 16) as usize);
                     let b = cx.base(c);
                     {
@@ -346,7 +348,6 @@ mod tests {
                             f.sort();
                             pos.entry([f[0], f[1], f[2]]).or_default().push((k, v[skip]));
                         }
-                        k += 1;
                     }
                 }
                 let mut bad = Vec::new();
