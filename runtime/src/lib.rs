@@ -9,6 +9,7 @@ pub mod perm;
 pub mod pictures;
 pub mod prefilter;
 pub mod progress;
+pub mod pt;
 pub mod render;
 pub mod request;
 pub mod scene;
