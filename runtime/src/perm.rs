@@ -354,8 +354,7 @@ impl PermCache {
             quant,
         };
         let need = formula(&counts);
-        let limit =
-            MAX_BYTES.min(gpu.limits().max_storage_buffer_binding_size as u64).min(gpu.limits().max_buffer_size);
+        let limit = MAX_BYTES.min(gpu.limits().max_storage_buffer_binding_size).min(gpu.limits().max_buffer_size);
         if need.total() > limit {
             return Err(GpuError::Runtime(format!(
                 "--qc {} --qc-grad {}: the PERM cache of {} candidate cells needs {}, over the limit of {limit} bytes; use a smaller --qc or --qc-grad",
