@@ -267,6 +267,13 @@ pub struct HitPlan {
     pub carried_samples: Vec<f64>,
     /// See `carried_samples`; empty when segments never carry.
     pub carried_to_bernstein: Vec<Vec<f64>>,
+    /// For filters whose unit cubes are single polynomial pieces and whose
+    /// only cutting planes are the grid planes (cc_trilinear, cc_tricubic):
+    /// the WGSL of `<f>_ray_bernstein`, which gives a segment's Bernstein
+    /// coefficients from one set of fetches by blossoming instead of the
+    /// samples above (`boxforge::emit::factored::ray_bernstein_fn`). The
+    /// polynomial is the same; the CPU reference keeps sampling it.
+    pub ray_bernstein: Option<String>,
 }
 
 /// A carried second derivative is used only on a segment no longer than
@@ -339,7 +346,10 @@ impl HitPlan {
             assert_eq!(rows.len(), n + 1, "degree + 1 conditions");
             carried_to_bernstein = invert(&rows);
         }
+        let ray_bernstein =
+            if families.len() == 3 { boxforge::emit::factored::ray_bernstein_fn(d, &d.filter.name) } else { None };
         HitPlan {
+            ray_bernstein,
             families,
             grid_offset,
             degree: n,
@@ -661,7 +671,15 @@ fn hit_context(plan: &HitPlan, name: &str) -> minijinja::Value {
                 &format!(" ps = {}.0 * (c{n} - 2.0 * c{} + c{}) / (len * len); lp = len;", n * (n - 1), n - 1, n - 2);
         }
     }
+    if plan.ray_bernstein.is_some() {
+        code = format!(
+            "        let cb = {name}_ray_bernstein(o + t * dir, o + te * dir, iso);\n{}",
+            (0..=n).map(|j| format!("        let c{j} = cb[{j}];\n")).collect::<String>()
+        );
+        carry_code = String::new();
+    }
     minijinja::context! {
+        helper => plan.ray_bernstein.clone().unwrap_or_default(),
         families => families,
         degree => n,
         samples => code,

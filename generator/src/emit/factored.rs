@@ -3,8 +3,9 @@
 //! (tricubic: 3 x 4 weights, then 16 + 4 + 1 four-term sums). The gradient
 //! carries derivative weights through the same contraction.
 
-use super::writer::{lit, Body, Shapes, AXES};
+use super::writer::{linear_combination, lit, Body, Shapes, AXES};
 use crate::derive::factor::{bernstein_01, odometer, Factorisation};
+use crate::derive::Derivation;
 use crate::math::exact::Q;
 
 /// sum_e c_e t^e with the powers named in `pows` (pows[e] = t^e; pows[0] unused).
@@ -220,7 +221,7 @@ pub(crate) fn emit_factored_body(fac: &Factorisation, sh: &Shapes, name: &str, g
 /// path, so it loops over the samples (scalar accumulators, no arrays) to
 /// keep the module small.
 pub(crate) fn emit_factored_bounds(fac: &Factorisation, sh: &Shapes, name: &str) -> String {
-    if fac.cosets.len() == 1 && fac.axes.iter().all(|a| a.step == 1 && a.order % 2 == 0) {
+    if one_piece_per_cube(fac) {
         return emit_tensor_bernstein_bounds(fac, sh, name);
     }
     use std::fmt::Write;
@@ -398,4 +399,141 @@ pub(crate) fn emit_factored_linear_body(fac: &Factorisation, sh: &Shapes, name: 
     }
     body.line(&format!("return {};", entries[0]));
     body.text
+}
+
+/// Whether every unit cube is one polynomial piece of this tensor-product
+/// filter with the local coordinate t = frac(s) running over `[0,1]` per
+/// axis: one coset, unit steps, even orders (cc_trilinear, cc_tricubic).
+fn one_piece_per_cube(fac: &Factorisation) -> bool {
+    fac.cosets.len() == 1 && fac.axes.iter().all(|a| a.step == 1 && a.order % 2 == 0)
+}
+
+/// `<f>_ray_bernstein(p0, p1, iso)` for a 3D filter whose unit cubes are
+/// single polynomial pieces (one coset, unit steps, even orders), or None
+/// for others.
+///
+/// It returns the Bernstein coefficients, on u in `[0,1]`, of
+/// f(p0 + u (p1 - p0)) - iso for a segment inside one cube: the exact first
+/// hit gets a whole segment's polynomial from one set of fetches (tricubic:
+/// 64) instead of sampling `_eval_grad` at (degree + 1) / 2 points. Along the
+/// segment each axis' local coordinate is affine in u, so the weight piece
+/// w_k of sample k becomes a polynomial in u of degree n - 1 whose Bernstein
+/// coefficients are its blossom (polar form) at (a0 x (n-1-j), a1 x j), with
+/// a0, a1 the end coordinates: sum_r c_{k,r} e_r(a0^(n-1-j), a1^j) / C(n-1, r)
+/// (e_r the elementary symmetric polynomials of that multiset). The samples
+/// contract axis by axis with those weights (times C(n-1, j)), and the
+/// product of the three Bernstein bases gives
+/// B_j0 B_j1 B_j2 = C(d0,j0) C(d1,j1) C(d2,j2) / C(D, m) B_m with
+/// m = j0 + j1 + j2, D the degree.
+pub fn ray_bernstein_fn(d: &Derivation, name: &str) -> Option<String> {
+    use crate::math::exact::binomial;
+    let fac = d.factorisation()?;
+    if fac.axes.len() != 3 || !one_piece_per_cube(&fac) {
+        return None;
+    }
+    let sh = Shapes::new(3);
+    let s = 3;
+    let orders: Vec<usize> = fac.axes.iter().map(|a| a.order).collect();
+    let degree: usize = orders.iter().map(|n| n - 1).sum();
+    let v = &fac.cosets[0];
+    let mut body = Body::new();
+    let pm = body.bind("pm", "0.5 * (p0 + p1)");
+    let fl = body.bind("fl", &format!("floor({})", coset_coordinate(&fac, &sh, v, &pm)));
+    let jb = body.bind("jb", &coset_base(&fac, &sh, v, &fl));
+    let a0 = body.bind("a", &format!("{} - {fl}", coset_coordinate(&fac, &sh, v, "p0")));
+    let a1 = body.bind("a", &format!("{} - {fl}", coset_coordinate(&fac, &sh, v, "p1")));
+    let mut entries: Vec<String> = odometer(&orders)
+        .iter()
+        .map(|k| {
+            let off: Vec<i64> = (0..s).map(|i| -(k[i] as i64)).collect();
+            let j = if off.iter().all(|&x| x == 0) { jb.clone() } else { format!("{jb} + {}", sh.ivec(&off)) };
+            body.bind("f", &format!("{name}_fetch({j})"))
+        })
+        .collect();
+    for (i, a) in fac.axes.iter().enumerate() {
+        let n = a.order;
+        let deg = n - 1;
+        let scale = if i == s - 1 { fac.scale.clone() } else { Q::one() };
+        let (x0, x1) = (format!("{a0}.{}", AXES[i]), format!("{a1}.{}", AXES[i]));
+        let p0s = powers(&mut body, &x0, deg);
+        let p1s = powers(&mut body, &x1, deg);
+        let pw = |pows: &[String], e: usize| if e == 0 { None } else { Some(pows[e].clone()) };
+        // sym[r][j] = e_r(x0 x (deg - j), x1 x j) / C(deg, r), r >= 1.
+        let mut sym: Vec<Vec<String>> = vec![vec![]; deg + 1];
+        for (r, row) in sym.iter_mut().enumerate().skip(1) {
+            for j in 0..=deg {
+                let terms: Vec<(Q, String)> = (0..=r)
+                    .filter_map(|q| {
+                        let c = binomial((deg - j) as u32, (r - q) as u32) * binomial(j as u32, q as u32)
+                            / binomial(deg as u32, r as u32);
+                        let t = match (pw(&p0s, r - q), pw(&p1s, q)) {
+                            (Some(x), Some(y)) => format!("{x} * {y}"),
+                            (Some(x), None) | (None, Some(x)) => x,
+                            (None, None) => unreachable!("r >= 1"),
+                        };
+                        (!c.is_zero()).then_some((c, t))
+                    })
+                    .collect();
+                let e = linear_combination(&terms);
+                row.push(if e.contains(' ') || e.contains('*') { body.bind("e", &e) } else { e });
+            }
+        }
+        // w[k][j]: C(deg, j) times the blossom of sample k's weight piece.
+        let w: Vec<Vec<String>> = a
+            .pieces
+            .iter()
+            .map(|piece| {
+                let mut c: Vec<Q> = piece.iter().map(|x| x.clone() * &scale).collect();
+                c.resize(n, Q::zero());
+                (0..=deg)
+                    .map(|j| {
+                        let bj = binomial(deg as u32, j as u32);
+                        let terms: Vec<(Q, String)> =
+                            (1..=deg).map(|r| (c[r].clone() * &bj, sym[r][j].clone())).collect();
+                        let mut e = linear_combination(&terms);
+                        let c0 = c[0].clone() * &bj;
+                        if !c0.is_zero() {
+                            e = if e == "0.0" { lit(&c0) } else { format!("{} + {e}", lit(&c0)) };
+                        }
+                        if e.contains(' ') || e.contains('*') {
+                            body.bind("w", &e)
+                        } else {
+                            e
+                        }
+                    })
+                    .collect()
+            })
+            .collect();
+        let m = entries.len() / n;
+        let mut next = vec![String::new(); entries.len()];
+        for (ci, xs) in entries.chunks(n).enumerate() {
+            for j in 0..n {
+                let ws: Vec<String> = (0..n).map(|k| w[k][j].clone()).collect();
+                let e = dot(&ws, xs);
+                next[ci + j * m] = if e.contains(' ') { body.bind("g", &e) } else { e };
+            }
+        }
+        entries = next;
+    }
+    // entries: odometer order of (j0, j1, j2).
+    let mut by_degree: Vec<Vec<String>> = vec![vec![]; degree + 1];
+    for (e, j) in entries.iter().zip(odometer(&orders)) {
+        by_degree[j.iter().sum::<usize>()].push(e.clone());
+    }
+    let coeffs: Vec<String> = by_degree
+        .iter()
+        .enumerate()
+        .map(|(mi, es)| {
+            let inv = Q::one() / binomial(degree as u32, mi as u32);
+            let sum = es.join(" + ");
+            let e = if inv.is_one() { format!("{sum} - iso") } else { format!("{} * ({sum}) - iso", lit(&inv)) };
+            body.bind("b", &e)
+        })
+        .collect();
+    body.line(&format!("return array<f32, {}>({});", degree + 1, coeffs.join(", ")));
+    Some(format!(
+        "/// Bernstein coefficients on u in [0,1] of {name}(p0 + u (p1 - p0)) - iso for\n/// a segment inside one unit cube (one polynomial piece), from one set of\n/// fetches: the blossom of each axis' weights at the segment's ends.\nfn {name}_ray_bernstein(p0: vec3<f32>, p1: vec3<f32>, iso: f32) -> array<f32, {}> {{\n{}}}\n",
+        degree + 1,
+        body.text
+    ))
 }
