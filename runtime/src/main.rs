@@ -216,6 +216,10 @@ enum Command {
         /// Skip the quality section.
         #[arg(long)]
         no_quality: bool,
+        /// Skip the PERM cache rows (Lim and Shin: DVR with the cache vs
+        /// direct evaluation for bcc_linear, bcc7, bcc12, cc_tricubic).
+        #[arg(long)]
+        no_perm: bool,
         /// Time the derivation of a fixed, seeded set of random specs instead
         /// (no GPU): with --markdown, replaces only its section of the file.
         #[arg(long)]
@@ -445,6 +449,7 @@ fn run(cli: Cli) -> Result<(), Failure> {
             smoke,
             no_naive,
             no_quality,
+            no_perm,
             no_references,
             derive,
             specs,
@@ -493,6 +498,7 @@ fn run(cli: Cli) -> Result<(), Failure> {
             }
             o.naive &= !no_naive;
             o.quality &= !no_quality;
+            o.perm &= !no_perm;
             // The CLI's smoke run includes the references (the library's
             // smoke options, used by the CI test, leave them to bench_refs).
             o.references = (o.references || smoke) && !no_references;

@@ -276,10 +276,16 @@ pub struct HitPlan {
     pub ray_bernstein: Option<String>,
 }
 
-/// A carried second derivative is used only on a segment no longer than
-/// the previous one (its rounding error scales with the squared length
-/// ratio, so it never grows) and for at most this many segments in a row.
-pub const HIT_CARRY_CHAIN: usize = 8;
+/// A carried second derivative s = d²f/dt² passes from segment to segment
+/// unchanged in t units (for Hermite data v0, d0, s0, v1, d1 the end value
+/// p''(1) depends on s0 with weight exactly 1), so the rounding error that a
+/// fresh or carried segment k puts into s, about e / len_k², reaches segment
+/// m as e (len_m / len_k)² in its coefficients. A segment carries only while
+/// len_m² * sum_k 1 / len_k² (over the chain since the last fresh segment)
+/// stays at most this bound: the error stays within this many roundings of
+/// one segment, whatever the segment lengths (a short segment makes the next
+/// long one start fresh).
+pub const HIT_CARRY_BOUND: f64 = 8.0;
 
 impl HitPlan {
     /// The plan of a 3D filter. C^1 splines of degree >= 3 sample value and
@@ -655,7 +661,8 @@ fn hit_context(plan: &HitPlan, name: &str) -> minijinja::Value {
             carried_code += &format!("            c{j} = {e};\n");
         }
         code += &format!(
-            "        if (have && len <= lp && chain < {HIT_CARRY_CHAIN}) {{\n{carried_code}            chain += 1;\n        }} else {{\n{fresh_code}            chain = 0;\n        }}\n"
+            "        if (have && len * len * acc <= {}) {{\n{carried_code}        }} else {{\n{fresh_code}            acc = 0.0;\n        }}\n",
+            lit(HIT_CARRY_BOUND)
         );
     } else {
         code += &format!("        {{\n{fresh_code}        }}\n");
@@ -667,8 +674,12 @@ fn hit_context(plan: &HitPlan, name: &str) -> minijinja::Value {
             carry_code += " pg = dot(gve.yzw, dir);";
         }
         if carry {
-            carry_code +=
-                &format!(" ps = {}.0 * (c{n} - 2.0 * c{} + c{}) / (len * len); lp = len;", n * (n - 1), n - 1, n - 2);
+            carry_code += &format!(
+                " ps = {}.0 * (c{n} - 2.0 * c{} + c{}) / (len * len); acc += 1.0 / (len * len);",
+                n * (n - 1),
+                n - 1,
+                n - 2
+            );
         }
     }
     if plan.ray_bernstein.is_some() {
@@ -966,9 +977,9 @@ pub fn hit_exact(
     };
     let carry = !plan.carried_to_bernstein.is_empty();
     let mut t = 0.0;
-    // Value, d/dt and d²/dt² at the previous segment's end, and its length.
+    // Value, d/dt and d²/dt² at the previous segment's end, and the sum of
+    // 1 / len² over the carry chain (see HIT_CARRY_BOUND).
     let mut prev: Option<(f64, f64, f64, f64)> = None;
-    let mut chain = 0;
     let mut cond = Vec::with_capacity(plan.degree + 1);
     while t < tend {
         let te = next.iter().fold(tend, |m, &x| m.min(x));
@@ -987,9 +998,12 @@ pub fn hit_exact(
             _ => sample(t),
         };
         let end = if plan.shared_ends { sample(te) } else { (0.0, 0.0) };
+        let carried = match prev {
+            Some((_, _, _, acc)) => carry && len * len * acc <= HIT_CARRY_BOUND,
+            None => false,
+        };
         let c = match prev {
-            Some((_, _, s, lp)) if carry && len <= lp && chain < HIT_CARRY_CHAIN => {
-                chain += 1;
+            Some((_, _, s, _)) if carried => {
                 cond.extend([start.0, len * start.1, len * len * s]);
                 for &u in &plan.carried_samples {
                     let (v, dt) = sample(t + len * u);
@@ -999,7 +1013,6 @@ pub fn hit_exact(
                 plan.coefficients_with(&plan.carried_to_bernstein, &cond)
             }
             _ => {
-                chain = 0;
                 for (i, &(u, grad)) in plan.samples.iter().enumerate() {
                     let (v, dt) = match i {
                         0 if plan.shared_ends => start,
@@ -1022,7 +1035,11 @@ pub fn hit_exact(
             }
         }
         let s = if carry { end_second_derivative(&c, len) } else { 0.0 };
-        prev = Some((end.0, end.1, s, len));
+        let acc = match prev {
+            Some((_, _, _, acc)) if carried => acc,
+            _ => 0.0,
+        } + 1.0 / (len * len);
+        prev = Some((end.0, end.1, s, acc));
         t = te;
     }
     None

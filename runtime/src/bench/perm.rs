@@ -55,7 +55,8 @@ pub fn downsample(v: &Volume, f: usize) -> Volume {
     Volume { dims, data }
 }
 
-/// The PERM rows at the run's first render size (none without one).
+/// The PERM rows at the run's first render size (none without one), for
+/// the filters of [`FILTERS`] that the run measures.
 pub fn rows(gpu: &Gpu, o: &BenchOptions, rounds: usize, progress: &dyn Fn(&str)) -> Result<Vec<BenchRow>, String> {
     let Some(&size) = o.render_sizes.first() else {
         return Ok(vec![]);
@@ -65,7 +66,7 @@ pub fn rows(gpu: &Gpu, o: &BenchOptions, rounds: usize, progress: &dyn Fn(&str))
         None => None,
     };
     let mut out = vec![];
-    for name in FILTERS {
+    for name in FILTERS.into_iter().filter(|f| o.filters.iter().any(|x| x == f)) {
         let d =
             Derivation::new(&boxforge::spec::resolve(name).map_err(|x| x.to_string())?).map_err(|x| x.to_string())?;
         let (vol, tf, what, view) = match &head {
