@@ -342,7 +342,14 @@ fn run(cli: Cli) -> Result<(), Failure> {
                 Some(name) => Some(boxforge_runtime::transfer::TransferFunction::load(name).map_err(Failure)?),
                 None => None,
             };
-            let f = spec::resolve(&filter)?;
+            let mut f = spec::resolve(&filter)?;
+            if f.view_dependent {
+                // The variant for this frame's view (Mattausch et al.: shear
+                // planes and shear direction follow the view direction).
+                let (f_view, choice) = f.view_variant(render::view_direction(az, el))?;
+                eprintln!("{choice}");
+                f = f_view;
+            }
             let d = Derivation::new(&f)?;
             if d.facts.dim != 3 {
                 return Err(Failure(format!("{} is {}D: render needs a 3D filter", f.name, d.facts.dim)));

@@ -183,14 +183,20 @@ pub fn valid_box(d: &Derivation, vol: &LatticeVolume) -> ([f32; 3], [f32; 3]) {
     (lo.to_array(), hi.to_array())
 }
 
+/// The camera's forward direction (from the eye toward the volume) for an
+/// azimuth and elevation in degrees: what view-dependent filters follow.
+pub fn view_direction(azimuth: f32, elevation: f32) -> [f64; 3] {
+    let (az, el) = (azimuth.to_radians(), elevation.to_radians());
+    let toward_eye = Vec3::new(el.cos() * az.cos(), el.cos() * az.sin(), el.sin());
+    (-toward_eye).to_array().map(f64::from)
+}
+
 pub fn ray_params(d: &Derivation, vol: &LatticeVolume, o: &RenderOptions) -> RayParams {
     let (lo, hi) = valid_box_vec(d, vol);
     let center = (lo + hi) * 0.5;
     let radius = 0.5 * (hi - lo).length();
-    let (az, el) = (o.azimuth.to_radians(), o.elevation.to_radians());
-    let toward_eye = Vec3::new(el.cos() * az.cos(), el.cos() * az.sin(), el.sin());
-    let forward = -toward_eye;
-    let world_up = if el.cos().abs() < 1e-3 { Vec3::Y } else { Vec3::Z };
+    let forward = Vec3::from_array(view_direction(o.azimuth, o.elevation).map(|x| x as f32));
+    let world_up = if o.elevation.to_radians().cos().abs() < 1e-3 { Vec3::Y } else { Vec3::Z };
     // Divide by the (guarded) length rather than glam's normalize, which
     // multiplies by its reciprocal and rounds differently.
     let right = {

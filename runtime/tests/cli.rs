@@ -198,3 +198,32 @@ fn generate_with_linear_fetches_picks_the_layouts_that_apply() {
     assert!(err.contains("--layout packed"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn a_view_dependent_filter_picks_its_variant_from_the_view_and_says_which() {
+    let dir = std::env::temp_dir().join(format!("boxforge-view-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let png = dir.join("v.png").display().to_string();
+    // Azimuth 0 looks along -x (mostly), elevation 80 along -z.
+    for (view, axis, signs) in
+        [("0,10", "reference z along x", "signs (-, +, -)"), ("30,80", "reference z along z", "signs (-, -, -)")]
+    {
+        let out = boxforge(&[
+            "render",
+            "--filter",
+            "bcc_sheared_trilinear",
+            "--volume",
+            "ml:8",
+            "--size",
+            "16",
+            "--view",
+            view,
+            "--out",
+            &png,
+        ]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "--view {view}: {err}");
+        assert!(err.contains(axis) && err.contains(signs), "--view {view}: expected '{axis}' and '{signs}' in {err}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

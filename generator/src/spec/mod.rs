@@ -108,6 +108,8 @@ struct RawSpec {
     caps: Caps,
     #[serde(default)]
     form: EvalForm,
+    #[serde(default)]
+    view_dependent: bool,
 }
 
 #[derive(Debug, Deserialize)]
@@ -132,6 +134,13 @@ pub struct Filter {
     pub caps: Caps,
     /// The evaluation form asked for (default `auto`).
     pub form: EvalForm,
+    /// A view-dependent scheme (spec key `view_dependent = true`): the
+    /// directions are the variant for views whose largest component is +z
+    /// and whose others are non-negative, and a renderer uses, per frame,
+    /// [`Filter::view_variant`] for its view direction (Mattausch et al.'s
+    /// sheared trilinear interpolation picks its shear planes and shear
+    /// directions this way).
+    pub view_dependent: bool,
 }
 
 fn integer(v: &toml::Value, what: &str) -> Result<i64> {
@@ -179,6 +188,13 @@ impl Filter {
             .collect::<Result<Vec<_>>>()?;
         let mut filter = Filter::new(&raw.name, &raw.description, lattice, directions, raw.caps)?;
         filter.form = raw.form;
+        if raw.view_dependent && filter.dim() != 3 {
+            return Err(Error::Spec {
+                origin: origin.to_string(),
+                message: "view_dependent = true needs a 3D lattice (the variant follows a 3D view direction)".into(),
+            });
+        }
+        filter.view_dependent = raw.view_dependent;
         Ok(filter)
     }
 
@@ -251,7 +267,68 @@ impl Filter {
             directions,
             caps,
             form: EvalForm::Auto,
+            view_dependent: false,
         })
+    }
+
+    /// The variant of a view-dependent filter for the view direction `view`
+    /// (3D): the reference axis z goes to the axis k of the largest |view_k|
+    /// (the first on a tie), the reference x and y to the other two in
+    /// order, and each axis a is then multiplied by the sign of view_a (+
+    /// for 0). For Mattausch et al.'s sheared trilinear interpolation this
+    /// puts the shear planes perpendicular to axis k, the plane stack most
+    /// perpendicular to the view, and the short cell edge along the signs
+    /// of the view (the sheared cell borders as parallel to the ray as the
+    /// lattice allows). Also returns a one-line description of the choice.
+    /// A filter that is not view-dependent comes back unchanged.
+    ///
+    /// # Errors
+    ///
+    /// [`Error::Spec`] for a view that is not 3D or not finite and non-zero,
+    /// and [`Error::NotInLattice`] when the lattice is not invariant under
+    /// that signed permutation (a custom lattice).
+    pub fn view_variant(&self, view: [f64; 3]) -> Result<(Filter, String)> {
+        if !self.view_dependent {
+            return Ok((self.clone(), format!("{} is not view-dependent", self.name)));
+        }
+        if self.dim() != 3 || view.iter().any(|x| !x.is_finite()) || view.iter().all(|&x| x == 0.0) {
+            return Err(Error::Spec {
+                origin: format!("filter {}", self.name),
+                message: format!("the view direction {view:?} must be 3D, finite and non-zero"),
+            });
+        }
+        let k = (0..3).fold(0, |best, a| if view[a].abs() > view[best].abs() { a } else { best });
+        let others: Vec<usize> = (0..3).filter(|&a| a != k).collect();
+        let target = [others[0], others[1], k];
+        let sign: Vec<i64> = view.iter().map(|&x| if x < 0.0 { -1 } else { 1 }).collect();
+        let directions: Vec<IVec> = self
+            .directions
+            .iter()
+            .map(|v| {
+                let mut w = vec![0; 3];
+                for (j, &a) in target.iter().enumerate() {
+                    w[a] = sign[a] * v[j];
+                }
+                w
+            })
+            .collect();
+        let mut f = Filter::new(&self.name, &self.description, self.lattice.clone(), directions, self.caps.clone())?;
+        f.form = self.form;
+        f.view_dependent = true;
+        let s = |x: i64| if x < 0 { '-' } else { '+' };
+        let label = format!(
+            "{}: view ({:.2}, {:.2}, {:.2}): reference z along {}, signs ({}, {}, {}), directions {:?}",
+            self.name,
+            view[0],
+            view[1],
+            view[2],
+            ["x", "y", "z"][k],
+            s(sign[0]),
+            s(sign[1]),
+            s(sign[2]),
+            f.directions
+        );
+        Ok((f, label))
     }
 
     /// The dimension of the lattice (and of every direction).
