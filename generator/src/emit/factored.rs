@@ -277,14 +277,7 @@ fn emit_tensor_bernstein_bounds(fac: &Factorisation, sh: &Shapes, name: &str) ->
     let p = body.bind("p", &format!("{}(z) + 0.5", sh.vecf));
     let fl = format!("floor({})", coset_coordinate(fac, sh, v, &p));
     let jb = body.bind("jb", &coset_base(fac, sh, v, &fl));
-    let mut entries: Vec<String> = odometer(&orders)
-        .iter()
-        .map(|k| {
-            let off: Vec<i64> = (0..s).map(|i| -(k[i] as i64)).collect();
-            let j = if off.iter().all(|&x| x == 0) { jb.clone() } else { format!("{jb} + {}", sh.ivec(&off)) };
-            body.bind("f", &format!("{name}_fetch({j})"))
-        })
-        .collect();
+    let mut entries = unit_step_fetches(&mut body, sh, &orders, &jb, name);
     for (i, a) in fac.axes.iter().enumerate() {
         let n = a.order;
         let scale = if i == s - 1 { fac.scale.clone() } else { Q::one() };
@@ -401,6 +394,19 @@ pub(crate) fn emit_factored_linear_body(fac: &Factorisation, sh: &Shapes, name: 
     body.text
 }
 
+/// The fetches of a one-coset, unit-step stencil from base `jb`: sample k
+/// (odometer order, axis 0 fastest) at jb - k.
+fn unit_step_fetches(body: &mut Body, sh: &Shapes, orders: &[usize], jb: &str, name: &str) -> Vec<String> {
+    odometer(orders)
+        .iter()
+        .map(|k| {
+            let off: Vec<i64> = k.iter().map(|&x| -(x as i64)).collect();
+            let j = if off.iter().all(|&x| x == 0) { jb.to_string() } else { format!("{jb} + {}", sh.ivec(&off)) };
+            body.bind("f", &format!("{name}_fetch({j})"))
+        })
+        .collect()
+}
+
 /// Whether every unit cube is one polynomial piece of this tensor-product
 /// filter with the local coordinate t = frac(s) running over `[0,1]` per
 /// axis: one coset, unit steps, even orders (cc_trilinear, cc_tricubic).
@@ -442,14 +448,7 @@ pub fn ray_bernstein_fn(d: &Derivation, name: &str) -> Option<String> {
     let jb = body.bind("jb", &coset_base(&fac, &sh, v, &fl));
     let a0 = body.bind("a", &format!("{} - {fl}", coset_coordinate(&fac, &sh, v, "p0")));
     let a1 = body.bind("a", &format!("{} - {fl}", coset_coordinate(&fac, &sh, v, "p1")));
-    let mut entries: Vec<String> = odometer(&orders)
-        .iter()
-        .map(|k| {
-            let off: Vec<i64> = (0..s).map(|i| -(k[i] as i64)).collect();
-            let j = if off.iter().all(|&x| x == 0) { jb.clone() } else { format!("{jb} + {}", sh.ivec(&off)) };
-            body.bind("f", &format!("{name}_fetch({j})"))
-        })
-        .collect();
+    let mut entries = unit_step_fetches(&mut body, &sh, &orders, &jb, name);
     for (i, a) in fac.axes.iter().enumerate() {
         let n = a.order;
         let deg = n - 1;
