@@ -17,3 +17,4 @@ pub mod transfer;
 pub mod upload;
 pub mod verify;
 pub mod volume;
+pub mod web;

@@ -250,6 +250,29 @@ enum Command {
         #[arg(long)]
         adapter: Option<String>,
     },
+    /// Write the browser viewer: a static site (HTML, one ES module, the
+    /// generated WGSL, catalog.json, the MNI head as .bfv) that ray casts
+    /// the catalog's filters in WebGPU with the same shaders as `render`.
+    /// With --serve, serve it on 127.0.0.1 and print the URL.
+    Web {
+        /// Spec files (or catalog names) to add; the whole catalog is always in.
+        specs: Vec<String>,
+        /// Only these filters (comma-separated catalog names or spec files) instead of the catalog.
+        #[arg(long, value_delimiter = ',')]
+        only: Vec<String>,
+        /// Site folder (default: site). --serve builds it only when it holds no site yet.
+        #[arg(short, long)]
+        out: Option<std::path::PathBuf>,
+        /// Serve the site on 127.0.0.1 and print its URL (until interrupted).
+        #[arg(long)]
+        serve: bool,
+        /// Port for --serve (0: any free port).
+        #[arg(long, default_value_t = 8000, requires = "serve")]
+        port: u16,
+        /// Leave the MNI head out of the site (it is 3.6 MB).
+        #[arg(long)]
+        no_mni: bool,
+    },
     /// List the built-in catalog.
     List,
 }
@@ -301,6 +324,53 @@ fn main() -> ExitCode {
 
 fn run(cli: Cli) -> Result<(), Failure> {
     match cli.command {
+        Command::Web { specs, only, out, serve, port, no_mni } => {
+            let dir = out.clone().unwrap_or_else(|| std::path::PathBuf::from("site"));
+            // --serve serves an existing site as it is (build it again without --serve).
+            let build = !serve || !dir.join("index.html").is_file();
+            if build {
+                request::check_output_dir(&dir, "--out").map_err(Failure)?;
+                let mut names: Vec<String> = if only.is_empty() {
+                    spec::catalog::names().into_iter().map(String::from).collect()
+                } else {
+                    only.clone()
+                };
+                for s in &specs {
+                    if !names.contains(s) {
+                        names.push(s.clone());
+                    }
+                }
+                let filters = names.iter().map(|n| spec::resolve(n)).collect::<Result<Vec<_>, _>>()?;
+                let volumes =
+                    if no_mni { vec![] } else { vec![boxforge_runtime::web::mni_volume(2).map_err(Failure)?] };
+                let started = std::time::Instant::now();
+                let site = boxforge_runtime::web::write_site(
+                    &dir,
+                    &filters,
+                    &boxforge_runtime::web::SiteOptions { volumes },
+                    |i, n, name| eprintln!("web: [{}/{n}] {name}", i + 1),
+                )
+                .map_err(Failure)?;
+                outln!(
+                    "{}: viewer for {} filters ({}), {} catalog modules, {} files, {:.1} MB in {:.1} s",
+                    dir.display(),
+                    site.filters.len(),
+                    site.filters.join(", "),
+                    site.modules,
+                    site.files.len(),
+                    site.bytes as f64 / 1e6,
+                    started.elapsed().as_secs_f64()
+                );
+            }
+            if serve {
+                let server = boxforge_runtime::web::serve(&dir, port).map_err(Failure)?;
+                outln!("serving {} at {} (Ctrl-C to stop)", dir.display(), server.url());
+                server.run();
+            } else {
+                outln!("serve it with: boxforge web --serve -o {} (or any static file server; WebGPU needs https or localhost)", dir.display());
+            }
+            Ok(())
+        }
         Command::List => {
             for name in spec::catalog::names() {
                 let f = spec::catalog::get(name)?;

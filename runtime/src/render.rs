@@ -722,7 +722,9 @@ fn template(name: &str, exact: Option<(&HitPlan, i32, [i32; 3])>) -> String {
             name => name,
             exact => true,
             fine_edge => edge,
-            fine_blocks => format!("{}, {}, {}", blocks[0], blocks[1], blocks[2]),
+            fine_blocks_x => blocks[0],
+            fine_blocks_y => blocks[1],
+            fine_blocks_z => blocks[2],
             hit => hit_context(plan, name),
         },
         None => minijinja::context! { name => name, exact => false },
@@ -741,9 +743,35 @@ pub fn render(
     render_with_depth(gpu, d, vol, layout, o).map(|(frame, _)| frame)
 }
 
+/// The whole ray-casting shader of a filter: its emitted module (`command`
+/// named in the header) and the ray caster of `hit`. The exact walk's fine
+/// bounds grid (edge, blocks per axis) are pipeline-overridable constants
+/// with `fine` as their defaults, so the browser viewer runs the same source
+/// on any volume (`boxforge web`).
+pub fn raycast_shader(
+    d: &Derivation,
+    layout: Layout,
+    hit: HitMode,
+    fine: (i32, [i32; 3]),
+    command: &str,
+) -> Result<String, GpuError> {
+    let module = emit(d, &EmitOptions { layout, command: command.into(), ..Default::default() })
+        .map_err(|e| GpuError::Runtime(e.to_string()))?;
+    let plan = HitPlan::new(d);
+    let exact = (hit == HitMode::Exact).then_some((&plan, fine.0, fine.1));
+    Ok(format!("{}\n{}", module.source, template(&d.filter.name, exact)))
+}
+
+/// The fine grid of the exact walk for a volume of `dims` and coarse blocks
+/// of `block` cubes: (edge, blocks per axis); see [`fine_edge`].
+pub fn fine_grid(dims: [usize; 3], block: i32) -> (i32, [i32; 3]) {
+    let e = fine_edge(dims, block);
+    (e, dims.map(|n| n.div_ceil(e as usize) as i32))
+}
+
 /// The edge of the fine bounds grid of the exact walk: 1 (one bound per unit
 /// cube) unless the grid would need more than 65535 workgroups of 64 to fill.
-fn fine_edge(dims: [usize; 3], coarse: i32) -> i32 {
+pub fn fine_edge(dims: [usize; 3], coarse: i32) -> i32 {
     let mut e = 1i32;
     while e < coarse.max(1) {
         let blocks: usize = dims.iter().map(|&n| n.div_ceil(e as usize)).product();
@@ -764,14 +792,10 @@ pub fn render_with_depth(
     o: &RenderOptions,
 ) -> Result<(Frame, Vec<f32>), GpuError> {
     let name = &d.filter.name;
-    let module = emit(d, &EmitOptions { layout, command: "boxforge render".into(), ..Default::default() })
-        .map_err(|e| GpuError::Runtime(e.to_string()))?;
     let params = ray_params(d, vol, o);
     let exact = o.hit == HitMode::Exact;
-    let fine = fine_edge(vol.dims, o.block);
-    let fine_blocks = vol.dims.map(|n| n.div_ceil(fine as usize) as i32);
-    let plan = HitPlan::new(d);
-    let source = format!("{}\n{}", module.source, template(name, exact.then_some((&plan, fine, fine_blocks))));
+    let (fine, fine_blocks) = fine_grid(vol.dims, o.block);
+    let source = raycast_shader(d, layout, o.hit, (fine, fine_blocks), "boxforge render")?;
     let shader = gpu.compile(&format!("{name}.raycast.wgsl"), &source)?;
     let dev = &gpu.device;
     let dv = DeviceVolume::new(gpu, vol, layout)?;
