@@ -2,7 +2,7 @@
 //! SwiftShader, Chrome's Tint compiling the WGSL), driven over the DevTools
 //! protocol: every module of the site compiles in Tint, and the page's
 //! canvas shows the same image as `boxforge render` on lavapipe for bcc7,
-//! fcc6 and cc_tricubic. Also writes the README's screenshot
+//! fcc6 and cc_tricubic isosurfaces and a bcc7 volume rendering. Also writes the README's screenshot
 //! (docs/web-viewer.png). Needs Debian's chromium (scripts/test.sh installs it).
 
 #[path = "web/cdp.rs"]
@@ -92,11 +92,18 @@ fn the_viewer_compiles_every_module_in_tint_and_matches_the_native_renderer() {
     let compiled = compiled.as_array().expect("a list");
     let catalog: serde_json::Value =
         serde_json::from_slice(&std::fs::read(site.join("catalog.json")).unwrap()).unwrap();
+    let viewer_shaders: usize = catalog["filters"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| f["shaders"].as_object().unwrap().values().map(|l| l.as_object().unwrap().len()).sum::<usize>())
+        .sum();
     assert_eq!(
         compiled.len(),
-        catalog["modules"].as_array().unwrap().len() + 4 * catalog["filters"].as_array().unwrap().len(),
-        "every module and viewer shader was compiled (packed layouts included)"
+        catalog["modules"].as_array().unwrap().len() + viewer_shaders,
+        "every module and viewer shader (iso step, iso exact, DVR per layout) was compiled"
     );
+    assert!(viewer_shaders >= 6 * 3, "the viewer shaders of bcc7, fcc6 and cc_tricubic at least");
     let failures: Vec<String> = compiled
         .iter()
         .filter(|c| !c["errors"].as_array().unwrap().is_empty())
@@ -153,6 +160,56 @@ fn the_viewer_compiles_every_module_in_tint_and_matches_the_native_renderer() {
         assert!(rms < 3.0, "{filter}: browser vs native RMS {rms:.3}/255 (want < 3)");
         assert!(share < 0.01, "{filter}: hit/miss differs at {:.2}% of pixels (want < 1%)", 100.0 * share);
     }
+
+    // DVR: the same pre-integrated volume rendering in the page and natively.
+    let scene = serde_json::json!({ "filter": "bcc7", "mlN": 41, "mode": "dvr", "tf": "marschner-lobb", "size": size, "view": [30, 25], "frames": 2 });
+    let web = browser.eval(&format!("window.boxforge.renderForTest({scene})")).expect("bcc7 DVR in the page");
+    let rgba = base64::engine::general_purpose::STANDARD.decode(web["rgba"].as_str().unwrap()).unwrap();
+    let step = catalog["dvr"]["step"].as_f64().unwrap().to_string();
+    let png = dir.join("bcc7-dvr.png");
+    let native = Command::new(BIN)
+        .args([
+            "render",
+            "--mode",
+            "dvr",
+            "--tf",
+            "marschner-lobb",
+            "--filter",
+            "bcc7",
+            "--volume",
+            "ml:41",
+            "--view",
+            "30,25",
+        ])
+        .args(["--step", &step, "--size", &size.to_string(), "--out"])
+        .arg(&png)
+        .output()
+        .unwrap();
+    assert!(native.status.success(), "bcc7 DVR: {}", String::from_utf8_lossy(&native.stderr));
+    let (_, _, reference) = read_png(&png);
+    assert_eq!(rgba.len(), reference.len());
+    let sq: f64 = rgba.iter().zip(&reference).map(|(&a, &b)| (a as f64 - b as f64).powi(2)).sum();
+    let rms = (sq / rgba.len() as f64).sqrt();
+    let shown = rgba.chunks(4).filter(|p| p[..3] != MISS).count();
+    eprintln!(
+        "bcc7 DVR: browser vs native RMS {rms:.3}/255, {shown} pixels not background, {:.1} ms/frame",
+        web["ms"].as_f64().unwrap_or(0.0)
+    );
+    assert!(shown > (size * size / 20) as usize, "bcc7 DVR: the page shows the volume ({shown} pixels)");
+    assert!(rms < 3.0, "bcc7 DVR: browser vs native RMS {rms:.3}/255 (want < 3)");
+
+    // The speed figure: a 256^2 bcc7 isosurface frame (no target on SwiftShader; reported).
+    let t = browser
+        .eval(&format!(
+            "window.boxforge.renderForTest({})",
+            serde_json::json!({ "filter": "bcc7", "mlN": 41, "iso": 0.5, "size": 256, "view": [30, 25], "frames": 3 })
+        ))
+        .expect("256^2 frame");
+    eprintln!(
+        "bcc7 ML 41, 256^2 isosurface: {:.1} ms/frame (median of 3) on {}",
+        t["ms"].as_f64().unwrap_or(0.0),
+        t["adapter"]
+    );
 
     // The README's screenshot: the page as a user sees it.
     browser

@@ -243,6 +243,66 @@ export function fineEdge(dims, coarse) {
   return e;
 }
 
+// ------------------------------------------------------------------ DVR
+
+/**
+ * The DVR caster's uniform block (dvr::dvr_params, DvrParams: 12 vec4, 192 bytes): the ray
+ * caster's camera and valid box, then the tables' scales, mode, light and sizes.
+ */
+export function dvrParams(supportRadius, dims, o, tf, dvr) {
+  const ray = rayParams(supportRadius, dims, { ...o, block: dvr.block });
+  const rf = new Float32Array(ray);
+  const ri = new Int32Array(ray);
+  const buf = new ArrayBuffer(192);
+  const f = new Float32Array(buf);
+  const i = new Int32Array(buf);
+  const [lo, hi] = tf.range;
+  const span = Math.fround(Math.fround(hi) - Math.fround(lo));
+  f.set(rf.subarray(0, 24), 0);
+  f.set([lo, (tf.table_size - 1) / span, (tf.preint_size - 1) / span, o.step], 24);
+  f.set([o.perspective ? 1 : 0, o.skip ? 1 : 0, 1, dvr.termination], 28);
+  f.set([...dvr.light, dvr.g0_of_range * span], 32);
+  i.set([o.width, o.height, dvr.block, 0], 36);
+  i.set([ri[32], ri[33], ri[34], tf.table_size], 40);
+  i.set([tf.preint_size, 0, 0, 0], 44);
+  return buf;
+}
+
+/** Per block, 1 when the transfer function is transparent over its [min, max] (Tf1d::transparent). */
+export function emptyFlags(bounds, tf) {
+  const n = tf.table_size;
+  const [lo, hi] = tf.range;
+  const coord = (v) => Math.min(Math.max((v - lo) * ((n - 1) / (hi - lo)), 0), n - 1);
+  const out = new Uint32Array(bounds.length / 2);
+  for (let k = 0; k < out.length; k++) {
+    const [vmin, vmax] = [bounds[2 * k], bounds[2 * k + 1]];
+    if (Number.isNaN(vmin) || Number.isNaN(vmax) || vmin > vmax) continue;
+    const a = Math.max(Math.floor(coord(vmin)) - 1, 0);
+    const b = Math.min(Math.ceil(coord(vmax)) + 1, n - 1);
+    let clear = 1;
+    for (let e = a; e <= b; e++) if (tf.table[4 * e + 3] !== 0) { clear = 0; break; }
+    out[k] = clear;
+  }
+  return out;
+}
+
+/** Skipped blocks: empty with every block within `radius` (dvr::skip_flags, a separable min filter). */
+export function skipFlags(empty, blocks, radius) {
+  const [nx, ny, nz] = blocks;
+  let f = Uint32Array.from(empty);
+  for (const [n, stride] of [[nx, 1], [ny, nx], [nz, nx * ny]]) {
+    const prev = f.slice();
+    for (let i = 0; i < f.length; i++) {
+      const c = Math.floor(i / stride) % n;
+      const base = i - c * stride;
+      let all = 1;
+      for (let q = Math.max(0, c - radius); q <= Math.min(n - 1, c + radius); q++) if (!prev[base + q * stride]) { all = 0; break; }
+      f[i] = all;
+    }
+  }
+  return f;
+}
+
 // ------------------------------------------------------------------ WebGPU
 
 /** A WGSL module that failed to compile, with its messages as file:line:column. */
@@ -326,6 +386,7 @@ class Scene {
     s.hit = hit;
     s.vol = vol;
     s.block = block;
+    const dvr = hit === 'dvr';
     const module = await gpu.module(filter.shaders[layout][hit]);
     const STORAGE = GPUBufferUsage.STORAGE;
     const UNIFORM = GPUBufferUsage.UNIFORM;
@@ -386,15 +447,31 @@ class Scene {
     await read.mapAsync(GPUMapMode.READ);
     s.bounds = new Float32Array(read.getMappedRange().slice(0));
     read.unmap();
-    s.raycast = await dev.createComputePipelineAsync({ layout: 'auto', compute: { module, entryPoint: `${name}_raycast_main`, constants } });
+    const entryPoint = dvr ? `${name}_dvr_main` : `${name}_raycast_main`;
+    s.raycast = await dev.createComputePipelineAsync({ layout: 'auto', compute: { module, entryPoint, constants } });
     s.volumeGroup = dev.createBindGroup({ layout: s.raycast.getBindGroupLayout(0), entries: volumeEntries });
-    s.params = gpu.empty(144, UNIFORM | GPUBufferUsage.COPY_DST);
+    s.params = gpu.empty(dvr ? 192 : 144, UNIFORM | GPUBufferUsage.COPY_DST);
+    s.tf = null;
     s.pixels = 0;
     return s;
   }
 
-  /** Share of coarse blocks whose bounds exclude `iso`. */
+  /** DVR: the transfer function's tables on the device and the skipping flags for it. */
+  useTransferFunction(tf, step) {
+    if (this.tf === tf && this.tfStep === step) return;
+    const STORAGE = GPUBufferUsage.STORAGE;
+    const empty = emptyFlags(this.bounds, tf);
+    this.emptyBlocks = empty.reduce((a, b) => a + b, 0) / Math.max(1, empty.length);
+    const flags = skipFlags(empty, this.coarse.blocks, Math.ceil(step / this.block));
+    this.tf = tf;
+    this.tfStep = step;
+    this.tfBuffers = [this.gpu.buffer(flags, STORAGE), this.gpu.buffer(tf.table, STORAGE), this.gpu.buffer(tf.preint, STORAGE)];
+    this.pixels = 0; // a new bind group
+  }
+
+  /** Share of coarse blocks whose bounds exclude `iso` (DVR: that the transfer function leaves transparent). */
   emptyShare(iso) {
+    if (this.hit === 'dvr') return this.emptyBlocks || 0;
     let n = 0;
     for (let i = 0; i < this.bounds.length; i += 2) if (iso < this.bounds[i] || iso > this.bounds[i + 1]) n++;
     return n / Math.max(1, this.bounds.length / 2);
@@ -413,15 +490,24 @@ class Scene {
       { binding: 2, resource: { buffer: this.coarse.out } },
       { binding: 3, resource: { buffer: this.depth } },
     ];
+    if (this.hit === 'dvr') {
+      entries.splice(2, 2, ...this.tfBuffers.map((buffer, k) => ({ binding: 2 + k, resource: { buffer } })));
+    }
     if (this.fine) entries.push({ binding: 4, resource: { buffer: this.fine.out } });
     this.rayGroup = dev.createBindGroup({ layout: this.raycast.getBindGroupLayout(1), entries });
   }
 
   /** Records the ray cast of a w x h image with `view` (iso, angles, ...) into `enc`. */
   encode(enc, view, w, h) {
+    const dvr = state.catalog.dvr;
+    if (this.hit === 'dvr') this.useTransferFunction(view.tf, dvr.step);
     this.ensureImage(w, h);
     const o = { ...view, width: w, height: h, block: this.block };
-    this.gpu.device.queue.writeBuffer(this.params, 0, rayParams(this.filter.support_radius, this.vol.dims, o));
+    if (this.hit === 'dvr') {
+      this.gpu.device.queue.writeBuffer(this.params, 0, dvrParams(this.filter.support_radius, this.vol.dims, { ...o, step: dvr.step }, view.tf, dvr));
+    } else {
+      this.gpu.device.queue.writeBuffer(this.params, 0, rayParams(this.filter.support_radius, this.vol.dims, o));
+    }
     const pass = enc.beginComputePass();
     pass.setPipeline(this.raycast);
     pass.setBindGroup(0, this.volumeGroup);
@@ -482,6 +568,7 @@ const state = {
   scene: null,
   sceneKey: '',
   cartesian: new Map(), // volume name -> Cartesian volume (MNI, user files)
+  tfs: new Map(), // transfer-function name -> tables
   view: { azimuth: 30, elevation: 25, zoom: 1 },
   lastFullMs: 0,
   busy: false,
@@ -499,7 +586,8 @@ function settings() {
   return {
     filter: $('filter').value,
     layout: $('layout').value,
-    hit: $('hit').value,
+    hit: $('mode').value === 'dvr' ? 'dvr' : $('hit').value,
+    tf: $('tf').value,
     volume: $('volume').value,
     mlN: Number($('ml-n').value),
     iso: Number($('iso').value),
@@ -540,13 +628,29 @@ async function currentScene(s) {
   const filter = filterByName(s.filter);
   const vol = await latticeVolume(filter, s);
   $('stats').textContent = `building ${s.filter} (${s.layout}, ${s.hit}) for ${vol.dims.join('x')} ...`;
-  state.scene = await Scene.create(state.gpu, filter, s.layout, s.hit, vol, state.catalog.defaults.block);
+  const block = s.hit === 'dvr' ? state.catalog.dvr.block : state.catalog.defaults.block;
+  state.scene = await Scene.create(state.gpu, filter, s.layout, s.hit, vol, block);
   state.sceneKey = key;
   return state.scene;
 }
 
-function viewOf(s) {
-  return { iso: s.iso, step: state.catalog.defaults.step, perspective: s.perspective, skip: s.skip, ...state.view };
+function viewOf(s, tf) {
+  return { iso: s.iso, step: state.catalog.defaults.step, perspective: s.perspective, skip: s.skip, tf, ...state.view };
+}
+
+/** The transfer function `name` of the site: range, sizes and its two tables (tf/<name>.bin), cached. */
+async function transferFunction(name) {
+  if (state.tfs.has(name)) return state.tfs.get(name);
+  const entry = state.catalog.transfer_functions.find((t) => t.name === name);
+  if (!entry) throw new Error(`no transfer function ${name} in this site`);
+  const response = await fetch(entry.file);
+  if (!response.ok) throw new Error(`cannot load ${entry.file}: HTTP ${response.status}`);
+  const all = new Float32Array(await response.arrayBuffer());
+  const n = 4 * entry.table_size;
+  if (all.length !== n + 4 * entry.preint_size * entry.preint_size) throw new Error(`${entry.file} has ${all.length} floats, the catalog says ${n} + ${4 * entry.preint_size ** 2}`);
+  const tf = { ...entry, table: all.slice(0, n), preint: all.slice(n) };
+  state.tfs.set(name, tf);
+  return tf;
 }
 
 /** Renders one frame at `fraction` of the full resolution; returns its GPU time in ms. */
@@ -560,7 +664,7 @@ async function frame(fraction) {
   const dev = state.gpu.device;
   const t0 = performance.now();
   const enc = dev.createCommandEncoder();
-  scene.encode(enc, viewOf(s), w, h);
+  scene.encode(enc, viewOf(s, s.hit === 'dvr' ? await transferFunction(s.tf) : null), w, h);
   state.presenter.encode(enc, scene, w, h);
   dev.queue.submit([enc.finish()]);
   await dev.queue.onSubmittedWorkDone();
@@ -667,11 +771,25 @@ function volumeChanged() {
   if (v === 'ml') setIsoRange(0, 1, 0.5);
   const entry = state.catalog.volumes.find((x) => x.name === v);
   if (entry) setIsoRange(0, 200, entry.iso);
+  const tf = v === 'ml' ? 'marschner-lobb' : entry && entry.transfer_function;
+  if (tf && state.catalog.transfer_functions.some((t) => t.name === tf)) $('tf').value = tf;
+}
+
+function modeChanged() {
+  const dvr = $('mode').value === 'dvr';
+  $('tf-row').hidden = !dvr;
+  $('hit-row').hidden = dvr;
+  $('iso-row').hidden = dvr;
+}
+
+function fillTransferFunctions() {
+  for (const t of state.catalog.transfer_functions) $('tf').add(new Option(`${t.name} (${t.range[0]} to ${t.range[1]})`, t.name));
 }
 
 function wireControls() {
   const canvas = $('view');
-  for (const id of ['layout', 'hit', 'size', 'perspective', 'skip', 'ml-n']) $(id).addEventListener('change', requestFrame);
+  for (const id of ['layout', 'hit', 'tf', 'size', 'perspective', 'skip', 'ml-n']) $(id).addEventListener('change', requestFrame);
+  $('mode').addEventListener('change', () => { modeChanged(); requestFrame(); });
   $('filter').addEventListener('change', () => { fillLayouts(); requestFrame(); });
   $('volume').addEventListener('change', () => { volumeChanged(); requestFrame(); });
   $('iso').addEventListener('input', () => { $('iso-value').textContent = Number($('iso').value).toPrecision(4); requestFrame(); });
@@ -727,8 +845,12 @@ async function renderForTest(scene) {
   set('skip', scene.skip !== false);
   if (scene.iso !== undefined) { $('iso').value = scene.iso; }
   if (scene.view) { state.view.azimuth = scene.view[0]; state.view.elevation = scene.view[1]; state.view.zoom = 1; }
+  set('mode', scene.mode || 'iso');
+  if (scene.tf) set('tf', scene.tf);
+  modeChanged();
   const s = settings();
   s.iso = scene.iso ?? s.iso; // the slider's own step would round it
+  const tf = s.hit === 'dvr' ? await transferFunction(s.tf) : null;
   const sc = await currentScene(s);
   const dev = state.gpu.device;
   const canvas = $('view');
@@ -740,13 +862,13 @@ async function renderForTest(scene) {
   for (let i = 0; i < (scene.frames || 1); i++) {
     const t0 = performance.now();
     const enc = dev.createCommandEncoder();
-    sc.encode(enc, viewOf(s), w, h);
+    sc.encode(enc, viewOf(s, tf), w, h);
     dev.queue.submit([enc.finish()]);
     await dev.queue.onSubmittedWorkDone();
     times.push(performance.now() - t0);
   }
   const enc = dev.createCommandEncoder();
-  sc.encode(enc, viewOf(s), w, h);
+  sc.encode(enc, viewOf(s, tf), w, h);
   const texture = state.presenter.encode(enc, sc, w, h);
   const rowBytes = Math.ceil((w * 4) / 256) * 256;
   const read = state.gpu.empty(rowBytes * h, GPUBufferUsage.MAP_READ | GPUBufferUsage.COPY_DST);
@@ -791,7 +913,9 @@ async function main() {
     $('volume').appendChild(o);
   }
   fillFilters();
+  fillTransferFunctions();
   volumeChanged();
+  modeChanged();
   state.gpu = await Gpu.open();
   state.gpu.device.lost.then((info) => showError(`the WebGPU device was lost: ${info.message}`));
   state.gpu.device.addEventListener('uncapturederror', (e) => showError(`WebGPU error: ${e.error.message}`));

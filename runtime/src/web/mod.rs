@@ -48,6 +48,8 @@ pub struct SiteVolume {
     pub name: String,
     pub description: String,
     pub iso: f32,
+    /// The transfer-function preset the page starts DVR with.
+    pub transfer_function: String,
     pub volume: Volume,
 }
 
@@ -128,7 +130,11 @@ fn filter_entry(d: &Derivation, layouts: &[Layout]) -> Value {
             let base = format!("shaders/{}.{}", f.name, l.name());
             (
                 l.name().to_string(),
-                json!({ "step": format!("{base}.iso-step.wgsl"), "exact": format!("{base}.iso-exact.wgsl") }),
+                json!({
+                    "step": format!("{base}.iso-step.wgsl"),
+                    "exact": format!("{base}.iso-exact.wgsl"),
+                    "dvr": format!("{base}.dvr.wgsl"),
+                }),
             )
         })
         .collect();
@@ -146,6 +152,27 @@ fn filter_entry(d: &Derivation, layouts: &[Layout]) -> Value {
         "view_dependent": f.view_dependent,
         "shaders": shaders,
     })
+}
+
+/// A transfer-function preset as the page needs it, `tf/<name>.bin`: the
+/// sampled table ([`crate::transfer::TransferFunction::table`], (r, g, b,
+/// extinction) per entry) then the pre-integration table for segments of
+/// `step` cells ([`crate::transfer::Tf1d::preintegrate`], row = front
+/// value), all f32 little-endian; and its catalog entry.
+fn transfer_file(name: &str, step: f32) -> Result<(Value, Vec<u8>), String> {
+    let tf = crate::transfer::TransferFunction::load(name)?;
+    let table = tf.table();
+    let pi = table.preintegrate(step as f64);
+    let data: Vec<u8> = table.entries.iter().chain(&pi.entries).flatten().flat_map(|x| x.to_le_bytes()).collect();
+    let entry = json!({
+        "name": name,
+        "file": format!("tf/{name}.bin"),
+        "range": [table.lo, table.hi],
+        "table_size": table.entries.len(),
+        "preint_size": pi.size,
+        "step": step,
+    });
+    Ok((entry, data))
 }
 
 /// Writes the site into `out` (created if missing; files replaced
@@ -186,6 +213,8 @@ pub fn write_site(
                 let path = format!("shaders/{}.{}.iso-{}.wgsl", f.name, layout.name(), hit.as_str());
                 files.push((path, source.into_bytes()));
             }
+            let source = crate::dvr::shader_source(&d, layout).map_err(|e| e.to_string())?;
+            files.push((format!("shaders/{}.{}.dvr.wgsl", f.name, layout.name()), source.into_bytes()));
         }
         entries.push(filter_entry(&d, &layouts));
         names.push(f.name.clone());
@@ -197,16 +226,32 @@ pub fn write_site(
             "name": v.name,
             "description": v.description,
             "iso": v.iso,
+            "transfer_function": v.transfer_function,
             "dims": v.volume.dims,
             "file": path,
         }));
         files.push((path, volume_file(&v.volume)));
+    }
+    let dvr = crate::dvr::DvrOptions::default();
+    let mut tfs = Vec::new();
+    for (name, _) in crate::transfer::PRESETS {
+        let (entry, data) = transfer_file(name, dvr.step)?;
+        files.push((entry["file"].as_str().expect("a path").to_string(), data));
+        tfs.push(entry);
     }
     let catalog = json!({
         "generator": format!("{WEB_COMMAND} {}", env!("CARGO_PKG_VERSION")),
         "filters": entries,
         "modules": modules,
         "volumes": volumes,
+        "transfer_functions": tfs,
+        "dvr": {
+            "step": dvr.step,
+            "block": dvr.block,
+            "termination": dvr.termination,
+            "light": crate::dvr::LIGHT,
+            "g0_of_range": crate::dvr::G0_OF_RANGE,
+        },
         "defaults": {
             "block": crate::render::RenderOptions::default().block,
             "step": crate::render::RenderOptions::default().step,
@@ -242,6 +287,7 @@ pub fn mni_volume(downsample: usize) -> Result<SiteVolume, String> {
             v.dims[0], v.dims[1], v.dims[2]
         ),
         iso: 90.0,
+        transfer_function: "mni-tissue".into(),
         volume: v,
     })
 }
@@ -272,7 +318,8 @@ mod tests {
         assert_eq!(site.modules, 4, "2 layouts x 2 variants");
         let catalog: Value = serde_json::from_slice(&std::fs::read(dir.join("catalog.json")).unwrap()).unwrap();
         let f = &catalog["filters"][0];
-        assert_eq!(f["lattice"]["det"], 2);
+        // BCC as a sublattice of Z^3 (all-even or all-odd points): index 4.
+        assert_eq!(f["lattice"]["det"], 4);
         // The BCC cosets: all even and all odd coordinates.
         assert_eq!(f["lattice"]["cosets"], json!([[0, 0, 0], [1, 1, 1]]));
         for layout in ["embedded", "packed"] {
@@ -282,6 +329,20 @@ mod tests {
                 assert!(source.contains("fn bcc_linear_raycast_main"), "{path}");
                 assert_eq!(hit == "exact", source.contains("override bcc_linear_FINE_EDGE"), "{path}");
             }
+            let path = f["shaders"][layout]["dvr"].as_str().unwrap();
+            assert!(std::fs::read_to_string(dir.join(path)).unwrap().contains("fn bcc_linear_dvr_main"), "{path}");
+        }
+        // Each preset's tables: the 1D table then the pre-integration table, as the native renderer builds them.
+        for t in catalog["transfer_functions"].as_array().unwrap() {
+            let name = t["name"].as_str().unwrap();
+            let bytes = std::fs::read(dir.join(t["file"].as_str().unwrap())).unwrap();
+            let floats: Vec<f32> = bytes.chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().unwrap())).collect();
+            let table = crate::transfer::TransferFunction::load(name).unwrap().table();
+            let (n, m) = (t["table_size"].as_u64().unwrap() as usize, t["preint_size"].as_u64().unwrap() as usize);
+            assert_eq!((n, floats.len()), (table.entries.len(), 4 * (n + m * m)), "{name}");
+            assert_eq!(floats[4 * (n - 1)..4 * n], table.entries[n - 1], "{name}: last 1D entry");
+            let pi = table.preintegrate(t["step"].as_f64().unwrap());
+            assert_eq!(floats[4 * n + 4 * (m * m - 2)..4 * n + 4 * (m * m - 1)], pi.entries[m * m - 2], "{name}");
         }
         for (name, _) in ASSETS {
             assert!(dir.join(name).is_file(), "{name}");
