@@ -304,9 +304,11 @@ fn bench_main(@builtin(global_invocation_id) gid: vec3<u32>) {{
     )
 }
 
-/// The module, extra functions and the kernel: the kernel's buffers go to
+/// A throughput program: the generated `module`, `extra` WGSL (a
+/// reference), and a `bench_main` kernel writing `call` (a vec4 expression
+/// of `p`) at every point, for [`Job::new`]. The kernel's buffers go to
 /// group 2 when the extra code declares the `ref_linear` sampler (group 1).
-fn program(module: &str, extra: &str, call: &str) -> String {
+pub fn program(module: &str, extra: &str, call: &str) -> String {
     let group = if references::uses_sampler(extra) { 2 } else { 1 };
     format!("{module}\n{extra}\n{}", kernel(call, group))
 }

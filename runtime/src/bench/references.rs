@@ -20,6 +20,12 @@ pub struct Reference {
 pub const KIM_LEE_BCC7: &str = include_str!("../../references/kim_lee_bcc7.wgsl");
 pub const SEPARABLE_TRICUBIC: &str = include_str!("../../references/separable_tricubic.wgsl");
 pub const SIGG_HADWIGER_TRICUBIC: &str = include_str!("../../references/sigg_hadwiger_tricubic.wgsl");
+/// Mattausch et al.'s bilinear and bilinear-plus-spatial BCC schemes, on the
+/// generated `bcc_linear` module's fetch (not box splines of the catalog:
+/// see the file). Checked against an independent CPU implementation in
+/// runtime/tests/mattausch_references.rs; no generated filter equals them,
+/// so they are not in [`builtin`].
+pub const MATTAUSCH_BILINEAR: &str = include_str!("../../references/mattausch_bilinear.wgsl");
 
 /// The built-in references.
 pub fn builtin() -> Vec<Reference> {
