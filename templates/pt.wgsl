@@ -49,9 +49,16 @@ struct PtParams {
 @group(0) @binding(4) var<storage, read> IDS: array<u32>;
 @group(0) @binding(5) var<storage, read> PI: array<vec4<f32>>;
 
+/// The sample at lattice point j (clamped to the volume). CC: x fastest.
+/// BCC: only the lattice points are stored, the all-even ones then the
+/// all-odd ones, each a half-resolution grid x fastest (a quarter of the
+/// embedded volume's size; boxforge_runtime::pt::render::packed_data).
 fn sample(j: vec3<i32>) -> f32 {
     let c = clamp(j, vec3<i32>(0), P.dims.xyz - 1);
-    return DATA[(c.z * P.dims.y + c.y) * P.dims.x + c.x];
+    let h = (P.dims.xyz + 1) / 2;
+    let bcc = (c.x & 1) * h.x * h.y * h.z + ((c.z >> 1u) * h.y + (c.y >> 1u)) * h.x + (c.x >> 1u);
+    let cc = (c.z * P.dims.y + c.y) * P.dims.x + c.x;
+    return DATA[select(cc, bcc, P.dims.w == 0)];
 }
 
 /// A smooth normal at lattice point j: the least-squares gradient of the

@@ -142,6 +142,14 @@ enum Command {
         /// the transfer function shows, and look them up; Lim and Shin's PERM).
         #[arg(long, default_value = "none")]
         cache: String,
+        /// --mode dvr: raycast, or pt (projected tetrahedra, Mattausch et al.: the Delaunay tetrahedra of
+        /// BCC or the Kuhn tetrahedra of CC cubes rasterised back to front, barycentric interpolation,
+        /// orthographic; the filter sets the lattice and the clipped box).
+        #[arg(long, value_parser = ["raycast", "pt"], default_value = "raycast")]
+        renderer: String,
+        /// --renderer pt: gouraud (lighting at the vertices) or phong (per fragment).
+        #[arg(long, value_parser = ["gouraud", "phong"], default_value = "phong")]
+        shading: String,
         /// --cache perm: density positions per cell axis (N^3 per cell; default 5).
         #[arg(long)]
         qc: Option<u32>,
@@ -384,6 +392,8 @@ fn run(cli: Cli) -> Result<(), Failure> {
             tf,
             no_preintegration,
             cache,
+            renderer,
+            shading,
             qc,
             qc_grad,
             filter,
@@ -408,6 +418,7 @@ fn run(cli: Cli) -> Result<(), Failure> {
             request::check_output_file(&out, "--out").map_err(Failure)?;
             let dvr = request::check_render_mode(&mode, tf.as_deref(), no_preintegration).map_err(Failure)?;
             let perm = boxforge_runtime::perm::check_request(&cache, &mode, qc, qc_grad).map_err(Failure)?;
+            let pt = request::check_renderer(&renderer, &mode, &cache, perspective).map_err(Failure)?;
             let tf = match &dvr {
                 Some(name) => Some(boxforge_runtime::transfer::TransferFunction::load(name).map_err(Failure)?),
                 None => None,
@@ -432,6 +443,12 @@ fn run(cli: Cli) -> Result<(), Failure> {
                 return Err(Failure(format!(
                     "filter {} is defined on the {} lattice, not {}: pick a filter for that lattice",
                     f.name, f.lattice.name, lat.name
+                )));
+            }
+            if pt && boxforge_runtime::pt::tets::Grid::of(&lat).is_none() {
+                return Err(Failure(format!(
+                    "--renderer pt has tetrahedral meshes for BCC and CC data, not the {} lattice of {}: pick a BCC or CC filter, or drop --renderer pt",
+                    lat.name, f.name
                 )));
             }
             let conversion = if resample { Conversion::Resample } else { Conversion::Subset };
@@ -478,6 +495,23 @@ fn run(cli: Cli) -> Result<(), Failure> {
                         ..Default::default()
                     };
                     match perm {
+                        _ if pt => {
+                            let shading = if shading == "gouraud" {
+                                boxforge_runtime::pt::render::Shading::Gouraud
+                            } else {
+                                boxforge_runtime::pt::render::Shading::Phong
+                            };
+                            if d.facts.degree != 1 {
+                                eprintln!("note: projected tetrahedra interpolate linearly on the tetrahedra; --filter {} sets only the lattice and the clipped box", d.filter.name);
+                            }
+                            boxforge_runtime::pt::render::render(&gpu, &d, &vol, tf, &o, shading).map(|(f, st)| {
+                                eprintln!(
+                                    "projected tetrahedra: {} of {} tetrahedra visible, ordered in {:.0} ms",
+                                    st.drawn, st.total, st.order_ms
+                                );
+                                f
+                            })
+                        }
                         Some(q) => boxforge_runtime::perm::render(&gpu, &d, &vol, layout, tf, &o, q).map(|(f, c)| {
                             let n = c.counts;
                             eprintln!(

@@ -176,6 +176,26 @@ pub fn check_render_mode(mode: &str, tf: Option<&str>, no_preintegration: bool) 
     }
 }
 
+/// `--renderer`: true for projected tetrahedra, which need `--mode dvr`,
+/// no cache and an orthographic view.
+pub fn check_renderer(renderer: &str, mode: &str, cache: &str, perspective: bool) -> Result<bool, String> {
+    if renderer != "pt" {
+        return Ok(false);
+    }
+    if mode != "dvr" {
+        return Err("--renderer pt renders volumes, not isosurfaces: add --mode dvr --tf ...".into());
+    }
+    if cache != "none" {
+        return Err(format!(
+            "--renderer pt draws the tetrahedra directly; drop --cache {cache} (it is for the ray caster)"
+        ));
+    }
+    if perspective {
+        return Err("--renderer pt is orthographic (the back-to-front traversal is a visibility order for parallel projection only): drop --perspective".into());
+    }
+    Ok(true)
+}
+
 /// A warning (not an error) when the transfer function is transparent over
 /// all of the data's values [lo, hi].
 pub fn tf_warning(table: &crate::transfer::Tf1d, lo: f32, hi: f32) -> Option<String> {

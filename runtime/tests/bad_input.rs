@@ -130,6 +130,28 @@ fn cases(dir: &Path) -> Vec<(Vec<String>, &'static str)> {
         (args(&["render", "--filter", "bcc7", "--volume", "ml:8", "--lattice", "hex", "--out", &out]), "hex"),
         (args(&["render", "--filter", "bcc7", "--volume", "ml:8", "--out", &p("a_directory")]), "directory"),
         (args(&["render", "--filter", "bcc7", "--volume", "ml:8", "--out", &p("a_file/x.png")]), "is a file"),
+        // render --renderer pt (projected tetrahedra)
+        (render(&["--renderer", "pt"]), "--mode dvr"),
+        (render(&["--mode", "dvr", "--tf", "marschner-lobb", "--renderer", "pt", "--perspective"]), "orthographic"),
+        (render(&["--mode", "dvr", "--tf", "marschner-lobb", "--renderer", "pt", "--cache", "perm"]), "--cache perm"),
+        (
+            args(&[
+                "render",
+                "--filter",
+                "fcc6",
+                "--volume",
+                "ml:8",
+                "--mode",
+                "dvr",
+                "--tf",
+                "marschner-lobb",
+                "--renderer",
+                "pt",
+                "--out",
+                &out,
+            ]),
+            "BCC and CC",
+        ),
         // bench and demo
         (args(&["bench", "--wgsl", &p("missing.wgsl")]), "--entry"),
         (args(&["bench", "--wgsl", &p("missing.wgsl"), "--entry", "f", "--like", "bcc7"]), "cannot read"),

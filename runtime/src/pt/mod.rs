@@ -2,9 +2,10 @@
 //! the tetrahedral meshes and their back-to-front orders ([`tets`]) and the
 //! render-pipeline shader (`templates/pt.wgsl`: vertex-shader classification
 //! of the projected profile, fragment-shader pre-integrated compositing).
-//! The host side (pipeline, per-cell visibility masks, `render --renderer pt`)
-//! is not written yet.
+//! The host side ([`render`]: per-cell visibility masks, the back-to-front
+//! order, one instanced draw) backs `render --renderer pt`.
 
+pub mod render;
 pub mod tets;
 
 /// The WGSL of the projected-tetrahedra render pipeline.
