@@ -235,6 +235,12 @@ enum Command {
         /// How many seeded random specs --derive uses (default 105).
         #[arg(long, requires = "derive")]
         specs: Option<usize>,
+        /// Measure the reconstructions and renderers of the source papers
+        /// instead (Mattausch et al.'s BCC schemes, projected tetrahedra on BCC
+        /// and CC, and ours), with each paper's claim and whether it holds here:
+        /// with --markdown, replaces only its section of the file.
+        #[arg(long, conflicts_with = "derive")]
+        literature: bool,
         /// Skip the hand-written references (generated vs hand-written).
         #[arg(long)]
         no_references: bool,
@@ -564,6 +570,7 @@ fn run(cli: Cli) -> Result<(), Failure> {
             no_references,
             derive,
             specs,
+            literature,
             runs,
             json,
             markdown,
@@ -590,6 +597,35 @@ fn run(cli: Cli) -> Result<(), Failure> {
                     outln!("{}", serde_json::to_string(&report).unwrap());
                 } else if markdown.is_none() {
                     outln!("{}", bench::derive::markdown(&report, &cmd));
+                }
+                return Ok(());
+            }
+            if literature {
+                let gpu = Gpu::new(adapter.as_deref()).map_err(|e| Failure(e.to_string()))?;
+                eprintln!("benchmarking on {}", gpu.describe());
+                let (points, rounds, pt_size) = if smoke { (4096, 2, 32) } else { (1 << 18, runs.unwrap_or(7), 256) };
+                let mut cmd = String::from("boxforge bench --literature");
+                if smoke {
+                    cmd.push_str(" --smoke");
+                }
+                if let Some(m) = &markdown {
+                    request::check_output_file(m, "--markdown").map_err(Failure)?;
+                    cmd.push_str(&format!(" --markdown {}", m.display()));
+                }
+                let steps = progress::Steps::new();
+                let report = bench::literature::run(&gpu, points, rounds, pt_size, &|m: &str| steps.step(m));
+                steps.finish();
+                let report = report.map_err(Failure)?;
+                let section = bench::literature::markdown(&report, &cmd);
+                if let Some(m) = &markdown {
+                    let old = std::fs::read_to_string(m).unwrap_or_default();
+                    boxforge::build::output::write_atomic(m, bench::literature::splice(&old, &section).as_bytes())?;
+                    eprintln!("wrote the literature section of {}", m.display());
+                }
+                if json {
+                    outln!("{}", serde_json::to_string(&report).unwrap());
+                } else if markdown.is_none() {
+                    outln!("{section}");
                 }
                 return Ok(());
             }
@@ -641,6 +677,9 @@ fn run(cli: Cli) -> Result<(), Failure> {
                 if let Some(m) = &markdown {
                     let mut text = bench::markdown(report, &cmd);
                     if let Some(section) = bench::derive::existing_section(&old) {
+                        text = format!("{}\n\n{section}\n", text.trim_end());
+                    }
+                    if let Some(section) = bench::literature::existing_section(&old) {
                         text = format!("{}\n\n{section}\n", text.trim_end());
                     }
                     boxforge::build::output::write_atomic(m, text.as_bytes())?;

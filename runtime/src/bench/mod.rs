@@ -7,6 +7,7 @@
 pub mod derive;
 pub mod dvr;
 pub mod hit;
+pub mod literature;
 pub mod perm;
 pub mod references;
 pub mod stats;

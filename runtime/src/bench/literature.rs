@@ -1,0 +1,332 @@
+//! `boxforge bench --literature`: the reconstructions and renderers of the
+//! source papers beside ours, measured in one run on the same data, with
+//! each paper's qualitative claim and whether this measurement confirms it.
+//!
+//! Per scheme: RMS error against the analytic Marschner-Lobb function on
+//! random points of a volume with (about) 41^3 samples on the scheme's
+//! lattice, and evals/s of its evaluation function on those points (all
+//! schemes interleaved in the same timed rounds). Mattausch et al.'s
+//! bilinear and bilinear-plus-spatial schemes are the hand-written
+//! references (`runtime/references/mattausch_bilinear.wgsl`, z stack);
+//! sheared trilinear is the catalog's `bcc_sheared_trilinear` (reference
+//! variant); barycentric on the Delaunay tetrahedra is `bcc_linear`. Then
+//! projected tetrahedra (`crate::pt`) on BCC and on CC data of the same
+//! sample count: ms per frame.
+
+use super::{program, references::MATTAUSCH_BILINEAR, stats::median, timed_rounds, Job};
+use crate::dvr::DvrOptions;
+use crate::gpu::Gpu;
+use crate::transfer::TransferFunction;
+use crate::upload::DeviceVolume;
+use crate::volume::{marschner_lobb, ml_position, LatticeVolume};
+use boxforge::derive::Derivation;
+use boxforge::emit::{emit, EmitOptions, Layout};
+use serde::Serialize;
+use std::fmt::Write as _;
+
+pub const SECTION_START: &str = "<!-- literature-bench:start -->";
+pub const SECTION_END: &str = "<!-- literature-bench:end -->";
+
+/// One reconstruction scheme measured.
+#[derive(Clone, Debug, Serialize)]
+pub struct SchemeRow {
+    pub scheme: String,
+    pub lattice: String,
+    /// Where it comes from.
+    pub source: String,
+    pub samples: usize,
+    pub rms_error: f64,
+    pub evals_per_s: f64,
+}
+
+/// Projected tetrahedra on one lattice.
+#[derive(Clone, Debug, Serialize)]
+pub struct PtRow {
+    pub lattice: String,
+    pub samples: usize,
+    pub tetrahedra_drawn: usize,
+    pub ms_per_frame: f64,
+}
+
+/// What `bench --literature` measured.
+#[derive(Clone, Debug, Serialize)]
+pub struct LiteratureReport {
+    pub adapter: String,
+    pub points: usize,
+    pub rounds: usize,
+    pub schemes: Vec<SchemeRow>,
+    pub pt: Vec<PtRow>,
+}
+
+/// (scheme label, filter whose module it runs on, WGSL call of p, extra source, source).
+fn schemes() -> Vec<(&'static str, &'static str, &'static str, &'static str, &'static str)> {
+    vec![
+        (
+            "bilinear",
+            "bcc_linear",
+            "mattausch_bilinear(p, 2)",
+            MATTAUSCH_BILINEAR,
+            "Mattausch et al. 2003, 3.1 (hand-written)",
+        ),
+        (
+            "bilinear + spatial",
+            "bcc_linear",
+            "mattausch_bilinear_spatial(p, 2)",
+            MATTAUSCH_BILINEAR,
+            "Mattausch et al. 2003, 3.2 (hand-written)",
+        ),
+        ("sheared trilinear", "bcc_sheared_trilinear", "", "", "Mattausch et al. 2003, 3.4 (catalog box spline)"),
+        ("barycentric (bcc_linear)", "bcc_linear", "", "", "Mattausch et al. 2003, 3.3; Entezari et al. (catalog)"),
+        ("bcc7", "bcc7", "", "", "Kim & Lee 2012; Kim 2013 (catalog)"),
+        ("bcc8", "bcc8", "", "", "Entezari et al. (catalog)"),
+        ("fcc6", "fcc6", "", "", "Kim 2013 (catalog)"),
+        ("CC trilinear", "cc_trilinear", "", "", "the usual baseline (catalog)"),
+        ("CC tricubic B-spline", "cc_tricubic", "", "", "Sigg & Hadwiger 2005 (catalog)"),
+    ]
+}
+
+fn derive(name: &str) -> Result<Derivation, String> {
+    let f = boxforge::spec::catalog::get(name).map_err(|e| e.to_string())?;
+    Derivation::new(&f).map_err(|e| e.to_string())
+}
+
+/// Runs the measurements: `points` random points per scheme, `rounds`
+/// timed rounds, projected tetrahedra at `pt_size`^2 pixels (0: none).
+pub fn run(
+    gpu: &Gpu,
+    points: usize,
+    rounds: usize,
+    pt_size: u32,
+    progress: &dyn Fn(&str),
+) -> Result<LiteratureReport, String> {
+    let e = |x: crate::gpu::GpuError| x.to_string();
+    let budget = 41f64.powi(3);
+    let mut jobs = Vec::new();
+    let mut rows = Vec::new();
+    for (label, filter, call, extra, source) in schemes() {
+        progress(&format!("literature: {label}"));
+        let d = derive(filter)?;
+        let edge = crate::scene::matched_edge(&d.filter.lattice, budget);
+        let vol = LatticeVolume::marschner_lobb(&d.filter.lattice, [edge; 3]).map_err(|x| x.to_string())?;
+        let pts = super::points_in(&d, &vol, points, 31);
+        let m = emit(&d, &EmitOptions { kernels: false, ..Default::default() }).map_err(|x| x.to_string())?;
+        let call = if call.is_empty() { format!("{}_eval(p)", d.filter.name) } else { call.to_string() };
+        let src = program(&m.source, extra, &format!("vec4<f32>({call}, 0.0, 0.0, 0.0)"));
+        let dv = DeviceVolume::new(gpu, &vol, Layout::Embedded).map_err(e)?;
+        let job = Job::new(gpu, &src, label, &dv, &pts).map_err(e)?;
+        job.time(gpu).map_err(e)?;
+        let out = job.outputs(gpu).map_err(e)?;
+        let sum: f64 = pts
+            .iter()
+            .zip(&out)
+            .map(|(p, o)| {
+                let x = ml_position(vol.dims, [p[0] as f64, p[1] as f64, p[2] as f64]);
+                (o[0] as f64 - marschner_lobb(x)).powi(2)
+            })
+            .sum();
+        rows.push(SchemeRow {
+            scheme: label.into(),
+            lattice: d.filter.lattice.name.clone(),
+            source: source.into(),
+            samples: vol.samples(),
+            rms_error: (sum / pts.len() as f64).sqrt(),
+            evals_per_s: 0.0,
+        });
+        jobs.push((job, dv));
+    }
+    progress("literature: timing every scheme in the same rounds");
+    let refs: Vec<&Job> = jobs.iter().map(|(j, _)| j).collect();
+    let rates = timed_rounds(gpu, &refs, rounds.max(1)).map_err(e)?;
+    for (row, r) in rows.iter_mut().zip(&rates) {
+        row.evals_per_s = median(r);
+    }
+    let mut pt = Vec::new();
+    if pt_size > 0 {
+        let tf = TransferFunction::preset("marschner-lobb");
+        let kuhn = boxforge::Filter::from_toml(
+            "name = \"cc_kuhn_linear\"\ndescription = \"barycentric on the Kuhn tetrahedra\"\nlattice = \"cc\"\ndirections = [[1,0,0],[0,1,0],[0,0,1],[1,1,1]]\n",
+            "bench --literature",
+        )
+        .map_err(|x| x.to_string())?;
+        for d in [derive("bcc_linear")?, Derivation::new(&kuhn).map_err(|x| x.to_string())?] {
+            progress(&format!("literature: projected tetrahedra on {}", d.filter.lattice.name));
+            let edge = crate::scene::matched_edge(&d.filter.lattice, budget);
+            let vol = LatticeVolume::marschner_lobb(&d.filter.lattice, [edge; 3]).map_err(|x| x.to_string())?;
+            let o = DvrOptions { width: pt_size, height: pt_size, frames: rounds.max(1), ..DvrOptions::default() };
+            let (frame, stats) =
+                crate::pt::render::render(gpu, &d, &vol, &tf, &o, crate::pt::render::Shading::Phong).map_err(e)?;
+            pt.push(PtRow {
+                lattice: d.filter.lattice.name.clone(),
+                samples: vol.samples(),
+                tetrahedra_drawn: stats.drawn,
+                ms_per_frame: frame.ms_per_frame,
+            });
+        }
+    }
+    Ok(LiteratureReport { adapter: gpu.describe(), points, rounds, schemes: rows, pt })
+}
+
+/// A claim of the papers and what the measurement says about it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Verdict {
+    pub claim: &'static str,
+    pub measured: String,
+    pub confirmed: Option<bool>,
+}
+
+fn find<'a>(r: &'a LiteratureReport, scheme: &str) -> Option<&'a SchemeRow> {
+    r.schemes.iter().find(|s| s.scheme == scheme)
+}
+
+/// Mattausch et al.'s claims (seed 003, section 5) checked on the rows.
+pub fn verdicts(r: &LiteratureReport) -> Vec<Verdict> {
+    let mut v = Vec::new();
+    let bcc = ["bilinear", "bilinear + spatial", "sheared trilinear", "barycentric (bcc_linear)"];
+    let rows: Vec<&SchemeRow> = bcc.iter().filter_map(|s| find(r, s)).collect();
+    let rate = |s: &str| find(r, s).map(|x| x.evals_per_s);
+    let rms = |s: &str| find(r, s).map(|x| x.rms_error);
+    if rows.len() == bcc.len() {
+        let fastest = rows.iter().max_by(|a, b| a.evals_per_s.total_cmp(&b.evals_per_s)).expect("rows");
+        v.push(Verdict {
+            claim: "bilinear is the fastest BCC scheme",
+            measured: format!("fastest: {} ({:.3e} evals/s)", fastest.scheme, fastest.evals_per_s),
+            confirmed: Some(fastest.scheme == "bilinear"),
+        });
+        let slowest = rows.iter().min_by(|a, b| a.evals_per_s.total_cmp(&b.evals_per_s)).expect("rows");
+        v.push(Verdict {
+            claim: "barycentric is the slowest BCC scheme",
+            measured: format!("slowest: {} ({:.3e} evals/s)", slowest.scheme, slowest.evals_per_s),
+            confirmed: Some(slowest.scheme == "barycentric (bcc_linear)"),
+        });
+        let best = [rms("sheared trilinear"), rms("bilinear + spatial")].map(|x| x.unwrap_or(f64::NAN));
+        let others = [rms("bilinear"), rms("barycentric (bcc_linear)")].map(|x| x.unwrap_or(f64::NAN));
+        v.push(Verdict {
+            claim: "sheared trilinear and bilinear + spatial give the best BCC images (here: lowest RMS error)",
+            measured: format!(
+                "RMS sheared {:.4}, bil+spat {:.4}; bilinear {:.4}, barycentric {:.4}",
+                best[0], best[1], others[0], others[1]
+            ),
+            confirmed: Some(best.iter().all(|b| others.iter().all(|o| b <= o))),
+        });
+    }
+    if let (Some(cc), Some(sh), Some(bs)) =
+        (rate("CC trilinear"), rate("sheared trilinear"), rate("bilinear + spatial"))
+    {
+        v.push(Verdict {
+            claim: "sheared trilinear and bilinear + spatial are slightly slower than CC trilinear",
+            measured: format!("evals/s relative to CC trilinear: sheared {:.2}, bil+spat {:.2}", sh / cc, bs / cc),
+            confirmed: Some(sh < cc && bs < cc),
+        });
+    }
+    if let (Some(b), Some(c)) = (r.pt.iter().find(|p| p.lattice == "bcc"), r.pt.iter().find(|p| p.lattice == "cc")) {
+        v.push(Verdict {
+            claim: "projected tetrahedra are faster on BCC than on CC at the same sample count",
+            measured: format!(
+                "BCC {:.0} ms ({} tetrahedra), CC {:.0} ms ({} tetrahedra)",
+                b.ms_per_frame, b.tetrahedra_drawn, c.ms_per_frame, c.tetrahedra_drawn
+            ),
+            confirmed: Some(b.ms_per_frame < c.ms_per_frame),
+        });
+    }
+    v
+}
+
+/// The markdown section (between [`SECTION_START`] and [`SECTION_END`]).
+pub fn markdown(r: &LiteratureReport, command: &str) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "{SECTION_START}\n## Renderers of the literature\n");
+    let _ = writeln!(
+        s,
+        "Written by `{command}` on {}. Marschner-Lobb with about 41^3 samples on each scheme's lattice; RMS error against the analytic function at {} random points; evals/s of each scheme's evaluation on those points, all schemes in the same {} timed rounds (median). Mattausch et al.'s bilinear schemes use the z plane stack (runtime/references/mattausch_bilinear.wgsl).\n",
+        r.adapter, r.points, r.rounds
+    );
+    let _ = writeln!(s, "| scheme | lattice | source | samples | RMS error | evals/s |\n|---|---|---|---|---|---|");
+    for x in &r.schemes {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} | {:.4} | {:.3e} |",
+            x.scheme, x.lattice, x.source, x.samples, x.rms_error, x.evals_per_s
+        );
+    }
+    if !r.pt.is_empty() {
+        let _ = writeln!(s, "\nProjected tetrahedra (`render --renderer pt`, Marschner-Lobb preset, Phong):\n\n| lattice | samples | tetrahedra drawn | ms/frame |\n|---|---|---|---|");
+        for p in &r.pt {
+            let _ = writeln!(s, "| {} | {} | {} | {:.1} |", p.lattice, p.samples, p.tetrahedra_drawn, p.ms_per_frame);
+        }
+    }
+    let _ = writeln!(s, "\n| the paper's claim | measured here | confirmed? |\n|---|---|---|");
+    for v in verdicts(r) {
+        let c = match v.confirmed {
+            Some(true) => "yes",
+            Some(false) => "no",
+            None => "n/a",
+        };
+        let _ = writeln!(s, "| {} | {} | {c} |", v.claim, v.measured);
+    }
+    let _ = writeln!(s, "{SECTION_END}");
+    s
+}
+
+/// `file` with this section replaced (or appended).
+pub fn splice(file: &str, section: &str) -> String {
+    match (file.find(SECTION_START), file.find(SECTION_END)) {
+        (Some(a), Some(b)) if b > a => {
+            format!("{}{}{}", &file[..a], section.trim_end(), &file[b + SECTION_END.len()..])
+        }
+        _ => format!("{}\n\n{}", file.trim_end(), section),
+    }
+}
+
+/// This section of `file`, if it has one (kept when the GPU bench rewrites the file).
+pub fn existing_section(file: &str) -> Option<&str> {
+    let a = file.find(SECTION_START)?;
+    let b = file.find(SECTION_END)?;
+    (b > a).then(|| &file[a..b + SECTION_END.len()])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(scheme: &str, rms: f64, rate: f64) -> SchemeRow {
+        SchemeRow {
+            scheme: scheme.into(),
+            lattice: "bcc".into(),
+            source: String::new(),
+            samples: 1,
+            rms_error: rms,
+            evals_per_s: rate,
+        }
+    }
+
+    #[test]
+    fn verdicts_follow_the_numbers() {
+        let mut r = LiteratureReport {
+            adapter: "test".into(),
+            points: 1,
+            rounds: 1,
+            schemes: vec![
+                row("bilinear", 0.3, 9.0),
+                row("bilinear + spatial", 0.1, 5.0),
+                row("sheared trilinear", 0.1, 6.0),
+                row("barycentric (bcc_linear)", 0.2, 2.0),
+                row("CC trilinear", 0.2, 7.0),
+            ],
+            pt: vec![],
+        };
+        let v = verdicts(&r);
+        assert_eq!(v.len(), 4);
+        assert!(v.iter().all(|x| x.confirmed == Some(true)), "{v:?}");
+        // Make bilinear slow and bilinear + spatial worse than barycentric: both verdicts flip.
+        r.schemes[0].evals_per_s = 1.0;
+        r.schemes[1].rms_error = 0.25;
+        let v = verdicts(&r);
+        assert_eq!(v[0].confirmed, Some(false), "{:?}", v[0]);
+        assert_eq!(v[1].confirmed, Some(false), "bilinear is now the slowest");
+        assert_eq!(v[2].confirmed, Some(false), "{:?}", v[2]);
+        let md = markdown(&r, "boxforge bench --literature");
+        assert!(md.starts_with(SECTION_START) && md.trim_end().ends_with(SECTION_END));
+        let spliced = splice(&format!("# B\n\n{md}\n\ntail\n"), &markdown(&r, "again"));
+        assert!(spliced.contains("again") && spliced.contains("tail") && spliced.matches(SECTION_START).count() == 1);
+    }
+}
