@@ -204,19 +204,28 @@ pub const SECTION_END: &str = "<!-- derive-bench:end -->";
 
 /// `file`'s text with the derive section replaced (or appended).
 pub fn splice(file: &str, section: &str) -> String {
-    match (file.find(SECTION_START), file.find(SECTION_END)) {
-        (Some(a), Some(b)) if b > a => {
-            format!("{}{}{}", &file[..a], section.trim_end(), &file[b + SECTION_END.len()..])
-        }
-        _ => format!("{}\n\n{}", file.trim_end(), section),
-    }
+    splice_between(file, section, SECTION_START, SECTION_END)
 }
 
 /// The derive section of `file`, if it has one (kept when the GPU bench rewrites the file).
 pub fn existing_section(file: &str) -> Option<&str> {
-    let a = file.find(SECTION_START)?;
-    let b = file.find(SECTION_END)?;
-    (b > a).then(|| &file[a..b + SECTION_END.len()])
+    section_between(file, SECTION_START, SECTION_END)
+}
+
+/// `file`'s text with the section between the markers `start` and `end`
+/// replaced by `section` (which carries the markers), or appended.
+pub fn splice_between(file: &str, section: &str, start: &str, end: &str) -> String {
+    match (file.find(start), file.find(end)) {
+        (Some(a), Some(b)) if b > a => format!("{}{}{}", &file[..a], section.trim_end(), &file[b + end.len()..]),
+        _ => format!("{}\n\n{}", file.trim_end(), section),
+    }
+}
+
+/// The section of `file` between the markers, markers included.
+pub fn section_between<'a>(file: &'a str, start: &str, end: &str) -> Option<&'a str> {
+    let a = file.find(start)?;
+    let b = file.find(end)?;
+    (b > a).then(|| &file[a..b + end.len()])
 }
 
 #[cfg(test)]

@@ -269,19 +269,12 @@ pub fn markdown(r: &LiteratureReport, command: &str) -> String {
 
 /// `file` with this section replaced (or appended).
 pub fn splice(file: &str, section: &str) -> String {
-    match (file.find(SECTION_START), file.find(SECTION_END)) {
-        (Some(a), Some(b)) if b > a => {
-            format!("{}{}{}", &file[..a], section.trim_end(), &file[b + SECTION_END.len()..])
-        }
-        _ => format!("{}\n\n{}", file.trim_end(), section),
-    }
+    super::derive::splice_between(file, section, SECTION_START, SECTION_END)
 }
 
 /// This section of `file`, if it has one (kept when the GPU bench rewrites the file).
 pub fn existing_section(file: &str) -> Option<&str> {
-    let a = file.find(SECTION_START)?;
-    let b = file.find(SECTION_END)?;
-    (b > a).then(|| &file[a..b + SECTION_END.len()])
+    super::derive::section_between(file, SECTION_START, SECTION_END)
 }
 
 #[cfg(test)]
