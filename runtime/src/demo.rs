@@ -185,6 +185,9 @@ pub fn run(out: &Path, size: u32, adapter: Option<&str>) -> Result<(), String> {
         rows.push(row);
         images.push(frame);
     }
+    steps.step("renderers of the literature (Mattausch et al.)");
+    let literature = literature_sheet(&gpu, &face, size)?;
+    pictures::write_png(&out.join("literature.png"), &literature).map_err(|e| e.to_string())?;
     steps.finish();
     // Contact sheet (plain): one column per filter, Marschner-Lobb above the head.
     let sheet = contact_sheet(&images, FILTERS.len(), size);
@@ -263,6 +266,10 @@ pub fn run(out: &Path, size: u32, adapter: Option<&str>) -> Result<(), String> {
             Block::Heading("Renders".into()),
             Block::Image { src: "contact_sheet_labelled.png".into(), caption: "Marschner-Lobb, MNI head (iso and DVR)".into() },
             Block::Image { src: "closeup.png".into(), caption: "Marschner-Lobb close-up".into() },
+            Block::Image {
+                src: "literature.png".into(),
+                caption: "Renderers of the literature on Marschner-Lobb (DVR, one transfer function): Mattausch et al.'s sheared trilinear and barycentric BCC schemes ray cast, projected tetrahedra on BCC and CC, CC trilinear; `boxforge bench --literature` measures them".into(),
+            },
             Block::Heading("Error".into()),
             Block::Image { src: "errors.png".into(), caption: "|reconstruction - analytic| on the middle slice, one scale".into() },
             Block::Heading("Quality".into()),
@@ -290,7 +297,7 @@ pub fn run(out: &Path, size: u32, adapter: Option<&str>) -> Result<(), String> {
         );
     }
     outln!(
-        "\nImages and page: {} (index.html, contact_sheet_labelled.png, closeup.png, errors.png, ml_*.png, mni_*.png, mni_dvr_*.png, plot_*.svg) on {}; total {:.1} s",
+        "\nImages and page: {} (index.html, contact_sheet_labelled.png, literature.png, closeup.png, errors.png, ml_*.png, mni_*.png, mni_dvr_*.png, plot_*.svg) on {}; total {:.1} s",
         out.display(),
         gpu.describe(),
         started.elapsed().as_secs_f64()
@@ -300,6 +307,61 @@ pub fn run(out: &Path, size: u32, adapter: Option<&str>) -> Result<(), String> {
 
 /// RMS and max error of the spline (GPU eval) against the analytic
 /// Marschner-Lobb function at random points of the valid box.
+/// Marschner-Lobb at about 41^3 samples, volume rendered with the
+/// marschner-lobb preset by the renderers of Mattausch et al. (2003) side by
+/// side: ray-cast sheared trilinear (the variant for this view) and
+/// barycentric (`bcc_linear`), projected tetrahedra on BCC and on CC (the
+/// Kuhn tetrahedra), and ray-cast CC trilinear.
+fn literature_sheet(gpu: &Gpu, face: &Typeface, size: u32) -> Result<Image, String> {
+    let tf = TransferFunction::preset("marschner-lobb");
+    let o = DvrOptions { width: size, height: size, frames: 1, ..Default::default() };
+    let view = render::view_direction(o.azimuth, o.elevation);
+    let derive = |f: &boxforge::Filter| Derivation::new(f).map_err(|e| e.to_string());
+    let catalog = |n: &str| boxforge::spec::catalog::get(n).map_err(|e| e.to_string());
+    let kuhn = boxforge::Filter::from_toml(
+        "name = \"cc_kuhn_linear\"\ndescription = \"barycentric on the Kuhn tetrahedra\"\nlattice = \"cc\"\ndirections = [[1,0,0],[0,1,0],[0,0,1],[1,1,1]]\n",
+        "demo",
+    )
+    .map_err(|e| e.to_string())?;
+    let sheared = catalog("bcc_sheared_trilinear")?.view_variant(view).map_err(|e| e.to_string())?.0;
+    // (label, filter, projected tetrahedra?)
+    let cases = [
+        ("sheared trilinear, ray cast", sheared, false),
+        ("barycentric (bcc_linear), ray cast", catalog("bcc_linear")?, false),
+        ("projected tetrahedra, BCC", catalog("bcc_linear")?, true),
+        ("projected tetrahedra, CC", kuhn, true),
+        ("CC trilinear, ray cast", catalog("cc_trilinear")?, false),
+    ];
+    let mut tiles = Vec::new();
+    for (label, f, pt) in cases {
+        let d = derive(&f)?;
+        let e = matched_edge(&d.filter.lattice, ML_EDGE.powi(3));
+        let ml = LatticeVolume::marschner_lobb(&d.filter.lattice, [e, e, e]).map_err(|e| e.to_string())?;
+        let frame = if pt {
+            boxforge_runtime::pt::render::render(gpu, &d, &ml, &tf, &o, boxforge_runtime::pt::render::Shading::Phong)
+                .map(|(f, _)| f)
+        } else {
+            boxforge_runtime::dvr::render(gpu, &d, &ml, Layout::Embedded, &tf, &o)
+        }
+        .map_err(|e| e.to_string())?;
+        tiles.push(Tile {
+            image: Image::from_rgba(frame.width, frame.height, frame.rgba),
+            caption: vec![
+                label.to_string(),
+                format!("{} samples ({})", ml.samples(), d.filter.lattice.name),
+                format!("{:.1} ms/frame", frame.ms_per_frame),
+            ],
+        });
+    }
+    let n = tiles.len();
+    Ok(pictures::contact_sheet(
+        face,
+        "Renderers of the literature: Marschner-Lobb, DVR (marschner-lobb preset)",
+        &tiles,
+        n,
+    ))
+}
+
 fn ml_error(gpu: &Gpu, d: &Derivation, ml: &LatticeVolume, points: usize) -> Result<(f64, f64), String> {
     let (lo, hi) = valid_box(d, ml);
     let mut rng = Rng(2024);
