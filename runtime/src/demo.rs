@@ -338,8 +338,16 @@ fn literature_sheet(gpu: &Gpu, face: &Typeface, size: u32) -> Result<Image, Stri
         let e = matched_edge(&d.filter.lattice, ML_EDGE.powi(3));
         let ml = LatticeVolume::marschner_lobb(&d.filter.lattice, [e, e, e]).map_err(|e| e.to_string())?;
         let frame = if pt {
-            boxforge_runtime::pt::render::render(gpu, &d, &ml, &tf, &o, boxforge_runtime::pt::render::Shading::Phong)
-                .map(|(f, _)| f)
+            boxforge_runtime::pt::render::render(
+                gpu,
+                &d,
+                &ml,
+                &tf,
+                &o,
+                boxforge_runtime::pt::render::Shading::Phong,
+                boxforge_runtime::pt::render::Normals::Vertex,
+            )
+            .map(|(f, _)| f)
         } else {
             boxforge_runtime::dvr::render(gpu, &d, &ml, Layout::Embedded, &tf, &o)
         }

@@ -147,7 +147,7 @@ enum Command {
         /// orthographic; the filter sets the lattice and the clipped box).
         #[arg(long, value_parser = ["raycast", "pt"], default_value = "raycast")]
         renderer: String,
-        /// --renderer pt: gouraud (lighting at the vertices) or phong (per fragment).
+        /// --renderer pt: gouraud (lighting at the vertices) or phong (per fragment), with smooth vertex normals.
         #[arg(long, value_parser = ["gouraud", "phong"], default_value = "phong")]
         shading: String,
         /// --cache perm: density positions per cell axis (N^3 per cell; default 5).
@@ -510,7 +510,8 @@ fn run(cli: Cli) -> Result<(), Failure> {
                             if d.facts.degree != 1 {
                                 eprintln!("note: projected tetrahedra interpolate linearly on the tetrahedra; --filter {} sets only the lattice and the clipped box", d.filter.name);
                             }
-                            boxforge_runtime::pt::render::render(&gpu, &d, &vol, tf, &o, shading).map(|(f, st)| {
+                            let normals = boxforge_runtime::pt::render::Normals::Vertex;
+                            boxforge_runtime::pt::render::render(&gpu, &d, &vol, tf, &o, shading, normals).map(|(f, st)| {
                                 eprintln!(
                                     "projected tetrahedra: {} of {} tetrahedra visible, ordered in {:.0} ms",
                                     st.drawn, st.total, st.order_ms

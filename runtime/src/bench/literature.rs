@@ -153,8 +153,16 @@ pub fn run(
             let edge = crate::scene::matched_edge(&d.filter.lattice, budget);
             let vol = LatticeVolume::marschner_lobb(&d.filter.lattice, [edge; 3]).map_err(|x| x.to_string())?;
             let o = DvrOptions { width: pt_size, height: pt_size, frames: rounds.max(1), ..DvrOptions::default() };
-            let (frame, stats) =
-                crate::pt::render::render(gpu, &d, &vol, &tf, &o, crate::pt::render::Shading::Phong).map_err(e)?;
+            let (frame, stats) = crate::pt::render::render(
+                gpu,
+                &d,
+                &vol,
+                &tf,
+                &o,
+                crate::pt::render::Shading::Phong,
+                crate::pt::render::Normals::Vertex,
+            )
+            .map_err(e)?;
             pt.push(PtRow {
                 lattice: d.filter.lattice.name.clone(),
                 samples: vol.samples(),

@@ -27,6 +27,18 @@ pub enum Shading {
     Phong,
 }
 
+/// Which normals the shading uses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Normals {
+    /// The interpolant's own gradient, constant on each tetrahedron: what
+    /// the ray caster's `eval_grad` gives for the linear box spline (the two
+    /// shadings then coincide).
+    Cell,
+    /// Smooth normals at the vertices (least-squares gradient of the
+    /// nearest samples), as the paper shades: Gouraud and Phong differ.
+    Vertex,
+}
+
 /// The uniform block of `templates/pt.wgsl` (`PtParams`, 12 vec4).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
@@ -136,6 +148,7 @@ pub fn render(
     tf: &TransferFunction,
     o: &DvrOptions,
     shading: Shading,
+    normals: Normals,
 ) -> Result<(Frame, PtStats), GpuError> {
     let grid = Grid::of(&vol.lattice).ok_or_else(|| {
         GpuError::Runtime(format!(
@@ -185,7 +198,12 @@ pub fn render(
         box_hi: r.box_hi,
         tf: [table.lo, 0.0, (pi.size as f32 - 1.0) / span, o.step],
         light: [LIGHT[0], LIGHT[1], LIGHT[2], G0_OF_RANGE * span],
-        image: [o.width as i32, o.height as i32, (shading == Shading::Phong) as i32, 0],
+        image: [
+            o.width as i32,
+            o.height as i32,
+            (shading == Shading::Phong) as i32,
+            (normals == Normals::Vertex) as i32,
+        ],
         dims: [vol.dims[0] as i32, vol.dims[1] as i32, vol.dims[2] as i32, (grid == Grid::Cc) as i32],
         counts: [
             complexes.counts[0] as i32,
