@@ -614,7 +614,16 @@ fn run(cli: Cli) -> Result<(), Failure> {
                     cmd.push_str(&format!(" --markdown {}", m.display()));
                 }
                 let steps = progress::Steps::new();
-                let report = bench::literature::run(&gpu, points, rounds, pt_size, &|m: &str| steps.step(m));
+                // The head at 2 mm (projected tetrahedra of the 1 mm head take about a minute a frame on lavapipe).
+                let head = match (smoke, boxforge_runtime::scene::data_file("mni152_t1_1mm.nii.gz")) {
+                    (false, Some(p)) => Some(bench::perm::downsample(
+                        &boxforge_runtime::volume::Volume::load_nifti(&p).map_err(|e| Failure(e.to_string()))?,
+                        2,
+                    )),
+                    _ => None,
+                };
+                let report =
+                    bench::literature::run(&gpu, points, rounds, pt_size, head.as_ref(), &|m: &str| steps.step(m));
                 steps.finish();
                 let report = report.map_err(Failure)?;
                 let section = bench::literature::markdown(&report, &cmd);

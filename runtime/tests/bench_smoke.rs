@@ -26,7 +26,7 @@ fn bench_smoke_runs_and_reports_every_section() {
 fn literature_bench_measures_every_scheme_and_judges_every_claim() {
     use boxforge_runtime::bench::literature;
     let gpu = boxforge_runtime::gpu::Gpu::new(None).unwrap_or_else(|e| panic!("{e}"));
-    let r = literature::run(&gpu, 2048, 1, 24, &|_| {}).unwrap();
+    let r = literature::run(&gpu, 2048, 1, 24, None, &|_| {}).unwrap();
     assert_eq!(r.schemes.len(), 9);
     for s in &r.schemes {
         // Every scheme reconstructs Marschner-Lobb at 41^3 to a few percent (the function spans [0, 1]).
@@ -34,6 +34,7 @@ fn literature_bench_measures_every_scheme_and_judges_every_claim() {
         assert!(s.evals_per_s > 0.0, "{s:?}");
     }
     assert_eq!(r.pt.iter().map(|p| p.lattice.as_str()).collect::<Vec<_>>(), ["bcc", "cc"]);
+    assert!(r.mni.is_empty(), "no head given, no head rows");
     assert!(r.pt.iter().all(|p| p.tetrahedra_drawn > 0 && p.ms_per_frame > 0.0));
     let v = literature::verdicts(&r);
     assert_eq!(v.len(), 5);
