@@ -36,7 +36,10 @@ pub struct SchemeRow {
     pub source: String,
     pub samples: usize,
     pub rms_error: f64,
+    /// Median over the rounds.
     pub evals_per_s: f64,
+    /// evals/s of each round (the rounds interleave every scheme).
+    pub rounds: Vec<f64>,
 }
 
 /// One renderer on the MNI head (DVR, mni-tissue preset).
@@ -148,6 +151,7 @@ pub fn run(
             samples: vol.samples(),
             rms_error: (sum / pts.len() as f64).sqrt(),
             evals_per_s: 0.0,
+            rounds: vec![],
         });
         jobs.push((job, dv));
     }
@@ -156,6 +160,7 @@ pub fn run(
     let rates = timed_rounds(gpu, &refs, rounds.max(1)).map_err(e)?;
     for (row, r) in rows.iter_mut().zip(&rates) {
         row.evals_per_s = median(r);
+        row.rounds = r.clone();
     }
     let mut pt = Vec::new();
     let mut mni_rows = Vec::new();
@@ -261,7 +266,6 @@ pub fn verdicts(r: &LiteratureReport) -> Vec<Verdict> {
     let mut v = Vec::new();
     let bcc = ["bilinear", "bilinear + spatial", "sheared trilinear", "barycentric (bcc_linear)"];
     let rows: Vec<&SchemeRow> = bcc.iter().filter_map(|s| find(r, s)).collect();
-    let rate = |s: &str| find(r, s).map(|x| x.evals_per_s);
     let rms = |s: &str| find(r, s).map(|x| x.rms_error);
     if rows.len() == bcc.len() {
         let fastest = rows.iter().max_by(|a, b| a.evals_per_s.total_cmp(&b.evals_per_s)).expect("rows");
@@ -288,12 +292,40 @@ pub fn verdicts(r: &LiteratureReport) -> Vec<Verdict> {
         });
     }
     if let (Some(cc), Some(sh), Some(bs)) =
-        (rate("CC trilinear"), rate("sheared trilinear"), rate("bilinear + spatial"))
+        (find(r, "CC trilinear"), find(r, "sheared trilinear"), find(r, "bilinear + spatial"))
     {
+        // Per-round ratios: a claim holds when every round agrees, fails
+        // when every round of one scheme disagrees, and is a tie otherwise.
+        let per_round = |x: &SchemeRow| -> Vec<f64> { x.rounds.iter().zip(&cc.rounds).map(|(a, b)| a / b).collect() };
+        let (rs, rb) = (per_round(sh), per_round(bs));
+        let confirmed = if rs.is_empty() || rb.is_empty() {
+            Some(sh.evals_per_s < cc.evals_per_s && bs.evals_per_s < cc.evals_per_s)
+        } else if rs.iter().chain(&rb).all(|&q| q < 1.0) {
+            Some(true)
+        } else if rs.iter().all(|&q| q >= 1.0) || rb.iter().all(|&q| q >= 1.0) {
+            Some(false)
+        } else {
+            None
+        };
+        let span = |q: &[f64]| {
+            let lo = q.iter().copied().fold(f64::INFINITY, f64::min);
+            let hi = q.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            if q.is_empty() {
+                String::new()
+            } else {
+                format!(" [{lo:.2}..{hi:.2}]")
+            }
+        };
         v.push(Verdict {
             claim: "sheared trilinear and bilinear + spatial are slightly slower than CC trilinear",
-            measured: format!("evals/s relative to CC trilinear: sheared {:.2}, bil+spat {:.2}", sh / cc, bs / cc),
-            confirmed: Some(sh < cc && bs < cc),
+            measured: format!(
+                "evals/s relative to CC trilinear, median [rounds]: sheared {:.2}{}, bil+spat {:.2}{}",
+                sh.evals_per_s / cc.evals_per_s,
+                span(&rs),
+                bs.evals_per_s / cc.evals_per_s,
+                span(&rb)
+            ),
+            confirmed,
         });
     }
     let mut parts = Vec::new();
@@ -356,7 +388,7 @@ pub fn markdown(r: &LiteratureReport, command: &str) -> String {
         let c = match v.confirmed {
             Some(true) => "yes",
             Some(false) => "no",
-            None => "n/a",
+            None => "tie (the rounds disagree)",
         };
         let _ = writeln!(s, "| {} | {} | {c} |", v.claim, v.measured);
     }
@@ -386,6 +418,7 @@ mod tests {
             samples: 1,
             rms_error: rms,
             evals_per_s: rate,
+            rounds: vec![rate],
         }
     }
 
@@ -415,6 +448,13 @@ mod tests {
         assert_eq!(v[0].confirmed, Some(false), "{:?}", v[0]);
         assert_eq!(v[1].confirmed, Some(false), "bilinear is now the slowest");
         assert_eq!(v[2].confirmed, Some(false), "{:?}", v[2]);
+        // Rounds that split around CC trilinear's rate make a tie; all above, a failure.
+        r.schemes[1].rounds = vec![6.0, 8.0];
+        r.schemes[2].rounds = vec![6.0, 6.5];
+        r.schemes[4].rounds = vec![7.0, 7.0];
+        assert_eq!(verdicts(&r)[3].confirmed, None, "{:?}", verdicts(&r)[3]);
+        r.schemes[1].rounds = vec![8.0, 9.0];
+        assert_eq!(verdicts(&r)[3].confirmed, Some(false));
         let md = markdown(&r, "boxforge bench --literature");
         assert!(md.starts_with(SECTION_START) && md.trim_end().ends_with(SECTION_END));
         let spliced = splice(&format!("# B\n\n{md}\n\ntail\n"), &markdown(&r, "again"));
