@@ -318,17 +318,13 @@ fn literature_sheet(gpu: &Gpu, face: &Typeface, size: u32) -> Result<Image, Stri
     let view = render::view_direction(o.azimuth, o.elevation);
     let derive = |f: &boxforge::Filter| Derivation::new(f).map_err(|e| e.to_string());
     let catalog = |n: &str| boxforge::spec::catalog::get(n).map_err(|e| e.to_string());
-    let kuhn = boxforge::Filter::from_toml(
-        "name = \"cc_kuhn_linear\"\ndescription = \"barycentric on the Kuhn tetrahedra\"\nlattice = \"cc\"\ndirections = [[1,0,0],[0,1,0],[0,0,1],[1,1,1]]\n",
-        "demo",
-    )
-    .map_err(|e| e.to_string())?;
+    let kuhn = boxforge_runtime::pt::tets::Grid::Cc.linear_filter();
     let sheared = catalog("bcc_sheared_trilinear")?.view_variant(view).map_err(|e| e.to_string())?.0;
     // (label, filter, projected tetrahedra?)
     let cases = [
         ("sheared trilinear, ray cast", sheared, false),
         ("barycentric (bcc_linear), ray cast", catalog("bcc_linear")?, false),
-        ("projected tetrahedra, BCC", catalog("bcc_linear")?, true),
+        ("projected tetrahedra, BCC", boxforge_runtime::pt::tets::Grid::Bcc.linear_filter(), true),
         ("projected tetrahedra, CC", kuhn, true),
         ("CC trilinear, ray cast", catalog("cc_trilinear")?, false),
     ];

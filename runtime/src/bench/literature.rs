@@ -16,6 +16,7 @@
 use super::{program, references::MATTAUSCH_BILINEAR, stats::median, timed_rounds, Job};
 use crate::dvr::DvrOptions;
 use crate::gpu::Gpu;
+use crate::pt::tets::Grid;
 use crate::transfer::TransferFunction;
 use crate::upload::DeviceVolume;
 use crate::volume::{marschner_lobb, ml_position, LatticeVolume};
@@ -165,12 +166,10 @@ pub fn run(
     let mut pt = Vec::new();
     let mut mni_rows = Vec::new();
     if pt_size > 0 {
-        let kuhn = boxforge::Filter::from_toml(
-            "name = \"cc_kuhn_linear\"\ndescription = \"barycentric on the Kuhn tetrahedra\"\nlattice = \"cc\"\ndirections = [[1,0,0],[0,1,0],[0,0,1],[1,1,1]]\n",
-            "bench --literature",
-        )
-        .map_err(|x| x.to_string())?;
-        let meshes = [derive("bcc_linear")?, Derivation::new(&kuhn).map_err(|x| x.to_string())?];
+        let meshes = [Grid::Bcc, Grid::Cc]
+            .map(|g| Derivation::new(&g.linear_filter()).map_err(|x| x.to_string()))
+            .into_iter()
+            .collect::<Result<Vec<_>, _>>()?;
         let ml_tf = TransferFunction::preset("marschner-lobb");
         let o = DvrOptions { width: pt_size, height: pt_size, frames: rounds.max(1), ..DvrOptions::default() };
         let pt_frame = |d: &Derivation, vol: &LatticeVolume, tf: &TransferFunction, o: &DvrOptions| {
@@ -227,7 +226,7 @@ pub fn run(
                 progress(&format!("literature: projected tetrahedra on {} (MNI head)", d.filter.lattice.name));
                 let vol = volume_on(d)?;
                 let (frame, stats) = pt_frame(d, &vol, &tf, &o)?;
-                let grid = crate::pt::tets::Grid::of(&d.filter.lattice).expect("BCC or CC");
+                let grid = Grid::of(&d.filter.lattice).expect("BCC or CC");
                 let bytes = crate::pt::render::packed_data(&vol, grid).len() * 4 + stats.drawn * 4;
                 mni_rows.push(MniRow {
                     renderer: "projected tetrahedra".into(),

@@ -23,6 +23,16 @@ mod tests {
     }
 
     #[test]
+    fn each_mesh_names_a_linear_spline_on_its_lattice() {
+        for grid in [Grid::Bcc, Grid::Cc] {
+            let f = grid.linear_filter();
+            assert_eq!(Grid::of(&f.lattice), Some(grid));
+            let d = boxforge::derive::Derivation::new(&f).unwrap();
+            assert_eq!(d.facts.degree, 1, "{grid:?}: piecewise linear, as barycentric interpolation is");
+        }
+    }
+
+    #[test]
     fn circumcentres_are_equidistant_from_the_four_vertices() {
         for grid in [Grid::Bcc, Grid::Cc] {
             for t in grid.types() {

@@ -38,6 +38,18 @@ impl Grid {
         }
     }
 
+    /// The box spline whose translates are the barycentric interpolant on
+    /// this mesh (so the ray caster shows the function PT draws): on BCC the
+    /// catalog's `bcc_linear`; on CC, for the Kuhn tetrahedra around each
+    /// cube's main diagonal, the spline with directions e1, e2, e3, (1, 1, 1).
+    pub fn linear_filter(self) -> boxforge::Filter {
+        let text = match self {
+            Grid::Bcc => boxforge::spec::catalog::source("bcc_linear").expect("bcc_linear is in the catalog").to_string(),
+            Grid::Cc => "name = \"cc_kuhn_linear\"\ndescription = \"barycentric interpolation on the Kuhn tetrahedra of the cubes\"\nlattice = \"cc\"\ndirections = [[1,0,0],[0,1,0],[0,0,1],[1,1,1]]\n".to_string(),
+        };
+        boxforge::Filter::from_toml(&text, "pt::tets::Grid::linear_filter").expect("a valid spec")
+    }
+
     /// The vertex offsets of every tetrahedron type, from the complex's base point.
     pub fn types(self) -> Vec<[[i64; 3]; 4]> {
         match self {
