@@ -164,7 +164,7 @@ pub fn dvr_params(d: &Derivation, vol: &LatticeVolume, table: &Tf1d, pi_size: us
 /// The DVR template for filter `name`; `perm` makes the ray caster look
 /// values up in the PERM cache (`<f>_perm_sample`, [`crate::perm`]) instead
 /// of calling `<f>_eval_grad` (the only difference in the text).
-fn template(name: &str, perm: bool) -> String {
+pub(crate) fn dvr_template(name: &str, perm: bool) -> String {
     let mut env = minijinja::Environment::new();
     env.add_template("dvr", include_str!("../../templates/dvr.wgsl.j2")).expect("template");
     env.get_template("dvr").unwrap().render(minijinja::context! { name => name, perm => perm }).expect("render")
@@ -177,7 +177,7 @@ pub fn shader_source(d: &Derivation, layout: Layout) -> Result<String, GpuError>
 
 /// [`shader_source`], with `perm` the ray caster reading the PERM cache.
 pub(crate) fn shader_source_with(d: &Derivation, layout: Layout, perm: bool) -> Result<String, GpuError> {
-    Ok(format!("{}\n{}", filter_module(d, layout)?, template(&d.filter.name, perm)))
+    Ok(format!("{}\n{}", filter_module(d, layout)?, dvr_template(&d.filter.name, perm)))
 }
 
 /// The emitted filter module (fetch, eval, eval_grad, min/max kernel).
@@ -291,10 +291,35 @@ impl<'a> DvrScene<'a> {
         block: i32,
     ) -> Result<DvrScene<'a>, GpuError> {
         let name = &d.filter.name;
-        let shader = gpu.compile(&format!("{name}.dvr.wgsl"), &shader_source(d, layout)?)?;
+        let source = shader_source(d, layout)?;
+        Self::with_source(gpu, d, vol, layout, block, Custom { name, source: &source, minmax: name, reach: 0 })
+    }
+
+    /// A scene whose ray caster evaluates a function other than `d`'s
+    /// emitted one (the hand-written schemes of [`crate::schemes`]): its
+    /// module `source` (with `d`'s emitted module inside) defines
+    /// `<name>_eval_grad` and the DVR template for `name`; blocks are
+    /// bounded by `d`'s min/max kernel `<minmax>_minmax_main`, per cell and
+    /// widened by `reach` cells when the function reaches further than
+    /// `d`'s support ([`widen_bounds`]).
+    pub(crate) fn with_source(
+        gpu: &'a Gpu,
+        d: &'a Derivation,
+        vol: &'a LatticeVolume,
+        layout: Layout,
+        block: i32,
+        custom: Custom<'_>,
+    ) -> Result<DvrScene<'a>, GpuError> {
+        let name = custom.name;
+        let shader = gpu.compile(&format!("{name}.dvr.wgsl"), custom.source)?;
         let dev = &gpu.device;
         let dv = DeviceVolume::new(gpu, vol, layout)?;
-        let bounds = block_bounds(gpu, &shader, name, &dv, vol.dims, block)?;
+        let bounds = if custom.reach > 0 {
+            let cells = block_bounds(gpu, &shader, custom.minmax, &dv, vol.dims, 1)?;
+            widen_bounds(&cells, vol.dims, block as usize, custom.reach)
+        } else {
+            block_bounds(gpu, &shader, custom.minmax, &dv, vol.dims, block)?
+        };
 
         let bgl_s = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("samples"),
@@ -412,6 +437,56 @@ pub(crate) struct Caster<'b> {
     pub pipeline: &'b wgpu::ComputePipeline,
     pub bgl: &'b wgpu::BindGroupLayout,
     pub extra: Vec<wgpu::BindGroupEntry<'b>>,
+}
+
+/// The ray-cast function of [`DvrScene::with_source`].
+pub(crate) struct Custom<'s> {
+    /// Prefix of `<name>_eval_grad` and of the DVR template's names.
+    pub name: &'s str,
+    /// The whole module: evaluation, min/max kernel and DVR template.
+    pub source: &'s str,
+    /// Prefix of the min/max kernel that bounds the blocks.
+    pub minmax: &'s str,
+    /// Cells beyond a block whose values the function reaches (0: the
+    /// blocks are bounded directly by the min/max kernel).
+    pub reach: usize,
+}
+
+/// Block bounds from cell bounds (`cells`, one per unit cube of `dims`, x
+/// fastest): each block of `block`^3 cells gets the union over its cells
+/// and every cell within `reach` of it, the bound of a function whose value
+/// at a point is a convex combination of values within `reach` cells of it.
+pub fn widen_bounds(cells: &[[f32; 2]], dims: [usize; 3], block: usize, reach: usize) -> Vec<[f32; 2]> {
+    let blocks = dims.map(|n| n.div_ceil(block));
+    // Separable: widen along x, then y, then z, over the window of each block.
+    let window = |b: usize, n: usize| (b * block).saturating_sub(reach)..((b + 1) * block + reach).min(n);
+    let mut cur = cells.to_vec();
+    let mut shape = dims;
+    for axis in 0..3 {
+        let mut next_shape = shape;
+        next_shape[axis] = blocks[axis];
+        let stride = |s: [usize; 3]| [1, s[0], s[0] * s[1]];
+        let (si, so) = (stride(shape), stride(next_shape));
+        let mut next = vec![[f32::INFINITY, f32::NEG_INFINITY]; next_shape.iter().product()];
+        for z in 0..next_shape[2] {
+            for y in 0..next_shape[1] {
+                for x in 0..next_shape[0] {
+                    let o = [x, y, z];
+                    let mut b = [f32::INFINITY, f32::NEG_INFINITY];
+                    for c in window(o[axis], dims[axis]) {
+                        let mut i = o;
+                        i[axis] = c;
+                        let v = cur[i[0] * si[0] + i[1] * si[1] + i[2] * si[2]];
+                        b = [b[0].min(v[0]), b[1].max(v[1])];
+                    }
+                    next[x * so[0] + y * so[1] + z * so[2]] = b;
+                }
+            }
+        }
+        cur = next;
+        shape = next_shape;
+    }
+    cur
 }
 
 /// One DVR image on the device (a [`DvrScene`] for a single render).
@@ -568,7 +643,7 @@ mod tests {
     fn the_uniform_matches_the_template_struct() {
         // Every field of `<f>_DvrParams` is a vec4 (16 bytes, no padding), in
         // the order of DvrParams.
-        let t = template("f", false);
+        let t = dvr_template("f", false);
         let body = t.split("struct f_DvrParams {").nth(1).unwrap().split('}').next().unwrap();
         let fields: Vec<&str> = body.lines().map(str::trim).filter(|l| !l.is_empty() && !l.starts_with("//")).collect();
         assert!(fields.iter().all(|f| f.ends_with("vec4<f32>,") || f.ends_with("vec4<i32>,")), "{fields:?}");
@@ -578,6 +653,35 @@ mod tests {
             names,
             ["eye", "forward", "right", "up", "box_lo", "box_hi", "tf", "mode", "light", "image", "blocks", "sizes"]
         );
+    }
+
+    #[test]
+    fn widened_bounds_are_the_union_over_the_block_and_its_reach() {
+        let dims = [7usize, 5, 6];
+        let n = dims.iter().product::<usize>();
+        let cells: Vec<[f32; 2]> = (0..n)
+            .map(|i| {
+                let v = ((i * 37) % 23) as f32;
+                [v, v + ((i * 11) % 5) as f32]
+            })
+            .collect();
+        for (block, reach) in [(2usize, 2usize), (4, 1), (3, 0)] {
+            let got = widen_bounds(&cells, dims, block, reach);
+            let blocks = dims.map(|d| d.div_ceil(block));
+            assert_eq!(got.len(), blocks.iter().product::<usize>());
+            for (k, g) in got.iter().enumerate() {
+                let b = [k % blocks[0], (k / blocks[0]) % blocks[1], k / (blocks[0] * blocks[1])];
+                let mut want = [f32::INFINITY, f32::NEG_INFINITY];
+                for (i, c) in cells.iter().enumerate() {
+                    let p = [i % dims[0], (i / dims[0]) % dims[1], i / (dims[0] * dims[1])];
+                    let inside = (0..3).all(|a| p[a] + reach >= b[a] * block && p[a] < (b[a] + 1) * block + reach);
+                    if inside {
+                        want = [want[0].min(c[0]), want[1].max(c[1])];
+                    }
+                }
+                assert_eq!(*g, want, "block {b:?}, edge {block}, reach {reach}");
+            }
+        }
     }
 
     #[test]

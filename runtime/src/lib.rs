@@ -13,6 +13,7 @@ pub mod pt;
 pub mod render;
 pub mod request;
 pub mod scene;
+pub mod schemes;
 pub mod transfer;
 pub mod upload;
 pub mod verify;

@@ -224,10 +224,12 @@ enum Command {
         /// Skip the quality section.
         #[arg(long)]
         no_quality: bool,
-        /// Skip the PERM cache rows (Lim and Shin: DVR with the cache vs
-        /// direct evaluation for bcc_linear, bcc7, bcc12, cc_tricubic).
-        #[arg(long)]
-        no_perm: bool,
+        /// Measure Lim and Shin's PERM cache instead (DVR with the cache vs
+        /// direct evaluation for bcc_linear, bcc7, bcc12, cc_tricubic at
+        /// N = 3, 5, 10 and (5, 3)): with --markdown, replaces only its
+        /// section of the file.
+        #[arg(long, conflicts_with_all = ["derive", "literature"])]
+        perm: bool,
         /// Time the derivation of a fixed, seeded set of random specs instead
         /// (no GPU): with --markdown, replaces only its section of the file.
         #[arg(long)]
@@ -390,6 +392,9 @@ fn run(cli: Cli) -> Result<(), Failure> {
                 let f = spec::catalog::get(name)?;
                 outln!("{:<16} {:<9} {}", f.name, f.lattice.name, f.description);
             }
+            for s in boxforge_runtime::schemes::ALL {
+                outln!("{:<16} {:<9} {}", s.name(), "bcc", s.description());
+            }
             Ok(())
         }
         Command::Validate { file, entries, json } => validate(&file, &entries, json),
@@ -429,7 +434,15 @@ fn run(cli: Cli) -> Result<(), Failure> {
                 Some(name) => Some(boxforge_runtime::transfer::TransferFunction::load(name).map_err(Failure)?),
                 None => None,
             };
-            let mut f = spec::resolve(&filter)?;
+            // Mattausch et al.'s hand-written plane-stack schemes: ray-cast DVR on BCC only.
+            let scheme = boxforge_runtime::schemes::Scheme::parse(&filter);
+            if let Some(s) = scheme {
+                request::check_scheme(s.name(), &mode, &cache, pt, &layout).map_err(Failure)?;
+            }
+            let mut f = match scheme {
+                Some(_) => spec::resolve("bcc_linear")?,
+                None => spec::resolve(&filter)?,
+            };
             if f.view_dependent {
                 // The variant for this frame's view (Mattausch et al.: shear
                 // planes and shear direction follow the view direction).
@@ -483,7 +496,8 @@ fn run(cli: Cli) -> Result<(), Failure> {
                 frames: 1,
                 ..RenderOptions::default()
             };
-            eprintln!("rendering {} ({} samples) with {} on {} ...", volume, vol.samples(), f.name, gpu.describe());
+            let shown = scheme.map_or(f.name.as_str(), |s| s.name());
+            eprintln!("rendering {} ({} samples) with {shown} on {} ...", volume, vol.samples(), gpu.describe());
             let layout = Layout::parse(&layout).expect("clap checked");
             let frame = match &tf {
                 Some(tf) => {
@@ -501,6 +515,12 @@ fn run(cli: Cli) -> Result<(), Failure> {
                         ..Default::default()
                     };
                     match perm {
+                        _ if scheme.is_some() => {
+                            boxforge_runtime::schemes::render(&gpu, &vol, scheme.unwrap(), tf, &o).map(|(f, choice)| {
+                                eprintln!("{choice}");
+                                f
+                            })
+                        }
                         _ if pt => {
                             let shading = if shading == "gouraud" {
                                 boxforge_runtime::pt::render::Shading::Gouraud
@@ -567,7 +587,7 @@ fn run(cli: Cli) -> Result<(), Failure> {
             smoke,
             no_naive,
             no_quality,
-            no_perm,
+            perm,
             no_references,
             derive,
             specs,
@@ -639,6 +659,44 @@ fn run(cli: Cli) -> Result<(), Failure> {
                 }
                 return Ok(());
             }
+            if perm {
+                let gpu = Gpu::new(adapter.as_deref()).map_err(|e| Failure(e.to_string()))?;
+                eprintln!("benchmarking on {}", gpu.describe());
+                let (size, rounds) = if smoke { (32, 1) } else { (256, runs.unwrap_or(3)) };
+                let mut cmd = String::from("boxforge bench --perm");
+                if smoke {
+                    cmd.push_str(" --smoke");
+                }
+                if let Some(r) = runs {
+                    cmd.push_str(&format!(" --runs {r}"));
+                }
+                if let Some(m) = &markdown {
+                    request::check_output_file(m, "--markdown").map_err(Failure)?;
+                    cmd.push_str(&format!(" --markdown {}", m.display()));
+                }
+                let head = match (smoke, boxforge_runtime::scene::data_file("mni152_t1_1mm.nii.gz")) {
+                    (false, Some(p)) => {
+                        Some(boxforge_runtime::volume::Volume::load_nifti(&p).map_err(|e| Failure(e.to_string()))?)
+                    }
+                    _ => None,
+                };
+                let steps = progress::Steps::new();
+                let report = bench::perm::run(&gpu, head.as_ref(), size, rounds, &|m: &str| steps.step(m));
+                steps.finish();
+                let report = report.map_err(Failure)?;
+                let section = bench::perm::markdown(&report, &cmd);
+                if let Some(m) = &markdown {
+                    let old = std::fs::read_to_string(m).unwrap_or_default();
+                    boxforge::build::output::write_atomic(m, bench::perm::splice(&old, &section).as_bytes())?;
+                    eprintln!("wrote the PERM section of {}", m.display());
+                }
+                if json {
+                    outln!("{}", serde_json::to_string(&report).unwrap());
+                } else if markdown.is_none() {
+                    outln!("{section}");
+                }
+                return Ok(());
+            }
             let external = match (wgsl, entry, like) {
                 (Some(w), Some(e), Some(l)) => Some(bench::External { wgsl: w, entry: e, like: l }),
                 (None, None, None) => None,
@@ -655,7 +713,6 @@ fn run(cli: Cli) -> Result<(), Failure> {
             }
             o.naive &= !no_naive;
             o.quality &= !no_quality;
-            o.perm &= !no_perm;
             // The CLI's smoke run includes the references (the library's
             // smoke options, used by the CI test, leave them to bench_refs).
             o.references = (o.references || smoke) && !no_references;
@@ -690,6 +747,9 @@ fn run(cli: Cli) -> Result<(), Failure> {
                         text = format!("{}\n\n{section}\n", text.trim_end());
                     }
                     if let Some(section) = bench::literature::existing_section(&old) {
+                        text = format!("{}\n\n{section}\n", text.trim_end());
+                    }
+                    if let Some(section) = bench::perm::existing_section(&old) {
                         text = format!("{}\n\n{section}\n", text.trim_end());
                     }
                     boxforge::build::output::write_atomic(m, text.as_bytes())?;

@@ -36,7 +36,7 @@ use crate::dvr::{block_bounds, caster_entries, filter_module, shader_source_with
 use crate::gpu::{Gpu, GpuError};
 use crate::render::Frame;
 use crate::transfer::{Preint, Tf1d, TransferFunction};
-use crate::upload::{storage_entry, uniform_entry};
+use crate::upload::{storage_entry, storage_texture_entry, texture_entry, uniform_entry};
 use std::time::Instant;
 use wgpu::util::DeviceExt;
 
@@ -81,7 +81,7 @@ pub struct Counts {
 }
 
 /// Bytes per part of the cache.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 pub struct Memory {
     /// Index volume (IV).
     pub index_volume: u64,
@@ -255,6 +255,7 @@ struct PermParams {
     dims: [i32; 4],
     quant: [u32; 4],
     scale: [f32; 4],
+    tex: [u32; 4],
 }
 
 /// The uniform block of templates/perm_build.wgsl.j2.
@@ -264,6 +265,7 @@ struct BuildParams {
     dims: [u32; 4],
     counts: [u32; 4],
     scale: [f32; 4],
+    tex: [u32; 4],
 }
 
 fn template(file: &'static str, name: &str) -> String {
@@ -295,17 +297,110 @@ pub struct PermCache {
     pipeline: wgpu::ComputePipeline,
     bgl: wgpu::BindGroupLayout,
     params: wgpu::Buffer,
-    buffers: [wgpu::Buffer; 4],
+    /// Index volume and summed-area table.
+    buffers: [wgpu::Buffer; 2],
+    /// Densities and gradients.
+    words: [CacheWords; 2],
 }
 
-/// A storage buffer of `bytes` (at least 4) zeroed bytes, readable back.
-fn zeroed(gpu: &Gpu, label: &str, bytes: u64) -> wgpu::Buffer {
-    gpu.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some(label),
-        size: bytes.max(4).div_ceil(4) * 4,
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    })
+/// One part of the cache: words in an r32uint 3D texture, word i at texel
+/// (i % W, (i / W) % H, i / (W H)). A texture, not a storage buffer,
+/// because storage bindings are limited (128 MiB on lavapipe and many
+/// GPUs) and the densities of N = 10 exceed that on ordinary volumes.
+struct CacheWords {
+    texture: wgpu::Texture,
+    view: wgpu::TextureView,
+    extent: [u32; 3],
+}
+
+impl CacheWords {
+    fn new(gpu: &Gpu, label: &str, words: u64) -> Result<CacheWords, GpuError> {
+        let max = gpu.limits().max_texture_dimension_3d;
+        let extent = texel_extent(words, max).ok_or_else(|| {
+            GpuError::Runtime(format!(
+                "--cache perm: the {label} need {words} words, more than a 3D texture of {max}^3 texels holds; use a smaller --qc or --qc-grad"
+            ))
+        })?;
+        let texture = gpu.checked(&format!("allocate {label}"), || {
+            gpu.device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(label),
+                size: wgpu::Extent3d { width: extent[0], height: extent[1], depth_or_array_layers: extent[2] },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D3,
+                format: wgpu::TextureFormat::R32Uint,
+                usage: wgpu::TextureUsages::STORAGE_BINDING
+                    | wgpu::TextureUsages::TEXTURE_BINDING
+                    | wgpu::TextureUsages::COPY_SRC,
+                view_formats: &[],
+            })
+        })?;
+        let view = texture.create_view(&wgpu::TextureViewDescriptor::default());
+        Ok(CacheWords { texture, view, extent })
+    }
+
+    /// Bytes allocated.
+    fn bytes(&self) -> u64 {
+        self.extent.iter().map(|&e| u64::from(e)).product::<u64>() * 4
+    }
+
+    /// All words, in order (texels past the last word included).
+    fn read(&self, gpu: &Gpu) -> Result<Vec<u32>, GpuError> {
+        let [w, h, d] = self.extent;
+        let row = u64::from(w) * 4;
+        let padded = row.div_ceil(256) * 256;
+        let staging = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("perm readback"),
+            size: padded * u64::from(h) * u64::from(d),
+            usage: wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut enc =
+            gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("perm readback") });
+        enc.copy_texture_to_buffer(
+            self.texture.as_image_copy(),
+            wgpu::TexelCopyBufferInfo {
+                buffer: &staging,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(padded as u32),
+                    rows_per_image: Some(h),
+                },
+            },
+            wgpu::Extent3d { width: w, height: h, depth_or_array_layers: d },
+        );
+        gpu.queue.submit([enc.finish()]);
+        let bytes = gpu.read_buffer(&staging)?;
+        Ok(bytes
+            .chunks(padded as usize)
+            .flat_map(|r| bytemuck::cast_slice::<u8, u32>(&r[..row as usize]).to_vec())
+            .collect())
+    }
+}
+
+/// The extent (W, H, D) of a 3D texture of at least `words` texels, no
+/// side over `max`, wasting as few texels as the search finds (at most W
+/// per slice; often none): the reported memory is what is allocated.
+pub fn texel_extent(words: u64, max: u32) -> Option<[u32; 3]> {
+    let words = words.max(1);
+    let m = u64::from(max);
+    let mut best: Option<(u64, [u32; 3])> = None;
+    for w in (1..=m.min(words)).rev() {
+        let rows = words.div_ceil(w);
+        let d = rows.div_ceil(m);
+        if d > m {
+            break;
+        }
+        let h = rows.div_ceil(d);
+        let total = w * h * d;
+        if best.is_none_or(|(t, _)| total < t) {
+            best = Some((total, [w as u32, h as u32, d as u32]));
+            if total == words {
+                break;
+            }
+        }
+    }
+    best.map(|(_, e)| e)
 }
 
 /// Workgroups (x, y) of 64 threads covering `threads`, and threads per row.
@@ -354,7 +449,7 @@ impl PermCache {
             quant,
         };
         let need = formula(&counts);
-        let limit = MAX_BYTES.min(gpu.limits().max_storage_buffer_binding_size).min(gpu.limits().max_buffer_size);
+        let limit = MAX_BYTES;
         if need.total() > limit {
             return Err(GpuError::Runtime(format!(
                 "--qc {} --qc-grad {}: the PERM cache of {} candidate cells needs {}, over the limit of {limit} bytes; use a smaller --qc or --qc-grad",
@@ -364,25 +459,33 @@ impl PermCache {
                 need.describe()
             )));
         }
+        let binding = gpu.limits().max_storage_buffer_binding_size.min(gpu.limits().max_buffer_size);
+        if need.index_volume > binding {
+            return Err(GpuError::Runtime(format!(
+                "--cache perm: the index volume of {} cells needs {} bytes, over this device's storage-binding limit of {binding} bytes; downsample the volume",
+                counts.cells, need.index_volume
+            )));
+        }
         let span = table.hi - table.lo;
         let (n3, m3) = (quant.density.pow(3) as u64, quant.gradient.pow(3) as u64);
         let (nd, ng) = (counts.candidates * n3, counts.candidates * m3);
         let iv = gpu.storage_buffer("perm index volume", bytemuck::cast_slice(&index.words), false);
         let sat = gpu.storage_buffer("perm summed-area table", bytemuck::cast_slice(&index.sat), false);
         let cells_buf = gpu.storage_buffer("perm cells", bytemuck::cast_slice(&index.cells), false);
-        let db = zeroed(gpu, "perm densities", nd * B_DB);
-        let gb = zeroed(gpu, "perm gradients", ng * (3 * B_GB + B_SB));
+        let db = CacheWords::new(gpu, "PERM densities", nd.div_ceil(2))?;
+        let gb = CacheWords::new(gpu, "PERM gradients", ng)?;
         let gmax_buf = gpu.storage_buffer("perm gmax", &[0u8; 4], true);
         let bgl_b = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("perm build"),
-            entries: &[uniform_entry(0), storage_entry(1, true), storage_entry(2, false), storage_entry(3, false)],
+            entries: &[uniform_entry(0), storage_entry(1, true), storage_texture_entry(2), storage_entry(3, false)],
         });
-        let pass = |entry: &str, out: &wgpu::Buffer, n: u32, threads: u64, positions: u64, scale: [f32; 4]| {
+        let pass = |entry: &str, out: &CacheWords, n: u32, threads: u64, positions: u64, scale: [f32; 4]| {
             let (groups, row) = grid(threads);
             let p = BuildParams {
                 dims: [dims[0] as u32, dims[1] as u32, dims[2] as u32, counts.candidates as u32],
                 counts: [n, n.pow(3), positions as u32, row],
                 scale,
+                tex: [out.extent[0], out.extent[1], 0, 0],
             };
             let pbuf = gpu.uniform_buffer("perm build params", bytemuck::bytes_of(&p));
             let bg = dev.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -391,7 +494,7 @@ impl PermCache {
                 entries: &[
                     wgpu::BindGroupEntry { binding: 0, resource: pbuf.as_entire_binding() },
                     wgpu::BindGroupEntry { binding: 1, resource: cells_buf.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 2, resource: out.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&out.view) },
                     wgpu::BindGroupEntry { binding: 3, resource: gmax_buf.as_entire_binding() },
                 ],
             });
@@ -403,7 +506,7 @@ impl PermCache {
         };
         let units = 65535.0 / span;
         pass("perm_density_main", &db, quant.density, nd.div_ceil(2), nd, [table.lo, units, 0.0, 0.0])?;
-        let dummy = zeroed(gpu, "perm unused", 4);
+        let dummy = CacheWords::new(gpu, "PERM unused", 1)?;
         pass("perm_gmax_main", &dummy, quant.gradient, ng, ng, [0.0; 4])?;
         let gmax = f32::from_bits(u32::from_le_bytes(gpu.read_buffer(&gmax_buf)?[..4].try_into().unwrap()));
         let gscale = if gmax > 0.0 { 255.0 / gmax } else { 0.0 };
@@ -421,8 +524,8 @@ impl PermCache {
             uniform_entry(5),
             storage_entry(6, true),
             storage_entry(7, true),
-            storage_entry(8, true),
-            storage_entry(9, true),
+            texture_entry(8),
+            texture_entry(9),
         ]);
         let bgl = dev
             .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("dvr perm"), entries: &entries });
@@ -431,17 +534,18 @@ impl PermCache {
             dims: [dims[0] as i32, dims[1] as i32, dims[2] as i32, 0],
             quant: [quant.density, quant.gradient, n3 as u32, m3 as u32],
             scale: [table.lo, span / 65535.0, span / 32767.0, gmax / 255.0],
+            tex: [db.extent[0], db.extent[1], gb.extent[0], gb.extent[1]],
         };
         let params = dev.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("perm params"),
             contents: bytemuck::bytes_of(&params),
             usage: wgpu::BufferUsages::UNIFORM,
         });
-        let g = gb.size();
+        let g = gb.bytes();
         let memory = Memory {
             index_volume: iv.size(),
             summed_area: sat.size(),
-            density: db.size(),
+            density: db.bytes(),
             gradient: g / 4 * 3,
             sign: g / 4,
         };
@@ -458,13 +562,14 @@ impl PermCache {
             pipeline,
             bgl,
             params,
-            buffers: [iv, sat, db, gb],
+            buffers: [iv, sat],
+            words: [db, gb],
         })
     }
 
     /// The densities as stored (16-bit fixed point, decoded to values).
     pub fn densities(&self, gpu: &Gpu, table: &Tf1d) -> Result<Vec<f32>, GpuError> {
-        let words: Vec<u32> = bytemuck::cast_slice(&gpu.read_buffer(&self.buffers[2])?).to_vec();
+        let words = self.words[0].read(gpu)?;
         let unit = (table.hi - table.lo) / 65535.0;
         let n = self.counts.candidates as usize * self.counts.quant.density.pow(3) as usize;
         Ok((0..n).map(|m| table.lo + unit * ((words[m >> 1] >> ((m & 1) << 4)) & 0xffff) as f32).collect())
@@ -489,8 +594,8 @@ impl PermCache {
             wgpu::BindGroupEntry { binding: 5, resource: self.params.as_entire_binding() },
             wgpu::BindGroupEntry { binding: 6, resource: b[0].as_entire_binding() },
             wgpu::BindGroupEntry { binding: 7, resource: b[1].as_entire_binding() },
-            wgpu::BindGroupEntry { binding: 8, resource: b[2].as_entire_binding() },
-            wgpu::BindGroupEntry { binding: 9, resource: b[3].as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 8, resource: wgpu::BindingResource::TextureView(&self.words[0].view) },
+            wgpu::BindGroupEntry { binding: 9, resource: wgpu::BindingResource::TextureView(&self.words[1].view) },
         ];
         scene.render_with(table, pi, o, Some(Caster { pipeline: &self.pipeline, bgl: &self.bgl, extra }))
     }
@@ -586,6 +691,25 @@ mod tests {
         }
         seen.sort();
         assert_eq!(seen, (0..index.cells.len() as u32).collect::<Vec<_>>(), "slots are 0..N_cc, each once");
+    }
+
+    #[test]
+    fn texture_extents_hold_every_word_and_waste_little() {
+        for (words, max) in
+            [(1u64, 2048u32), (5, 2048), (2049, 2048), (4096 * 4097, 2048), (1 << 29, 2048), (99_991, 64), (4093, 16)]
+        {
+            let e = texel_extent(words, max).unwrap();
+            let total: u64 = e.iter().map(|&v| u64::from(v)).product();
+            assert!(e.iter().all(|&v| v >= 1 && v <= max), "{words}: {e:?}");
+            assert!(total >= words, "{words}: {e:?} holds {total}");
+            // At most one row per slice is partly empty.
+            assert!(total - words < u64::from(e[0]) * u64::from(e[2]), "{words}: {e:?} wastes {}", total - words);
+        }
+        // 2^29 words fill 2048 x 2048 x 128 exactly; a prime count fits exactly in one row when it can.
+        assert_eq!(texel_extent(1 << 29, 2048), Some([2048, 2048, 128]));
+        assert_eq!(texel_extent(2039, 2048), Some([2039, 1, 1]));
+        // Too many words for the largest texture.
+        assert_eq!(texel_extent(16 * 16 * 16 + 1, 16), None);
     }
 
     #[test]

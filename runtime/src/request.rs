@@ -213,6 +213,26 @@ pub fn iso_warning(iso: f32, lo: f32, hi: f32) -> Option<String> {
     })
 }
 
+/// `render --filter mattausch_bilinear[_spatial]`: the hand-written
+/// plane-stack schemes are ray cast in DVR only, on the embedded layout.
+pub fn check_scheme(name: &str, mode: &str, cache: &str, pt: bool, layout: &str) -> Result<(), String> {
+    if mode != "dvr" {
+        return Err(format!(
+            "--filter {name} is a hand-written scheme that the DVR ray caster runs; --mode {mode} needs a catalog filter: add --mode dvr --tf ..., or pick a filter from `boxforge list`"
+        ));
+    }
+    if pt {
+        return Err(format!("--filter {name} is ray cast; projected tetrahedra interpolate on tetrahedra: drop --renderer pt (or use --filter bcc_linear with it)"));
+    }
+    if cache != "none" {
+        return Err(format!("--filter {name}: --cache {cache} caches catalog filters only; drop --cache"));
+    }
+    if layout != "embedded" {
+        return Err(format!("--filter {name} reads the embedded layout; drop --layout {layout}"));
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -121,3 +121,91 @@ fn mattausch_bilinear_schemes_match_the_papers_formulas_on_every_stack() {
         }
     }
 }
+
+// ---- Ray cast (`render --mode dvr --filter mattausch_bilinear[_spatial]`) ----
+
+use boxforge_runtime::dvr::{rms, DvrOptions, DvrScene};
+use boxforge_runtime::schemes::{self, Scheme};
+use boxforge_runtime::transfer::TransferFunction;
+
+/// An affine function sampled on BCC: bilinear plus spatial and barycentric
+/// (bcc_linear) both reproduce it, so their DVR images must agree.
+fn affine_bcc(n: usize, slope: f64) -> LatticeVolume {
+    let lattice = boxforge::spec::lattice::Lattice::builtin("bcc").unwrap();
+    let mut data = vec![0.0f32; n * n * n];
+    for z in 0..n {
+        for y in 0..n {
+            for x in 0..n {
+                let j = [x as i64, y as i64, z as i64];
+                if lattice.contains(&j) {
+                    data[x + n * (y + n * z)] = (slope * (1.0 * x as f64 + 0.75 * y as f64 + 0.5 * z as f64)) as f32;
+                }
+            }
+        }
+    }
+    LatticeVolume { lattice, dims: [n; 3], data }
+}
+
+fn slab_tf() -> TransferFunction {
+    TransferFunction::parse(
+        r#"{"range": [0, 1], "points": [{"value": 0, "color": [0, 0, 0], "opacity": 0},
+            {"value": 0.3, "color": [0.2, 0.5, 0.9], "opacity": 0}, {"value": 0.4, "color": [1, 0.8, 0.3], "opacity": 0.6},
+            {"value": 0.5, "color": [0.9, 0.2, 0.1], "opacity": 0}, {"value": 1, "color": [0, 0, 0], "opacity": 0}]}"#,
+        "slab",
+    )
+    .unwrap()
+}
+
+#[test]
+fn ray_cast_bilinear_spatial_reproduces_an_affine_volume_like_barycentric() {
+    let gpu = Gpu::new(None).unwrap_or_else(|e| panic!("{e}"));
+    let vol = affine_bcc(20, 0.02);
+    let base = schemes::base().unwrap();
+    let tf = slab_tf();
+    let o = DvrOptions { width: 64, height: 64, frames: 0, step: 0.25, ..DvrOptions::default() };
+    let reference = DvrScene::new(&gpu, &base, &vol, Layout::Embedded, 4).unwrap().render(&tf, &o).unwrap();
+    let (frame, choice) = schemes::render(&gpu, &vol, Scheme::BilinearSpatial, &tf, &o).unwrap();
+    let e = rms(&frame.rgba, &reference.rgba);
+    eprintln!("{choice}; RMS vs bcc_linear {e:.3}/255");
+    assert!(e < 1.0, "bilinear + spatial vs barycentric on an affine volume: RMS {e:.3}/255");
+    // Nearest-plane bilinear does not reproduce the part across the planes: it can fail.
+    let (frame, _) = schemes::render(&gpu, &vol, Scheme::Bilinear, &tf, &o).unwrap();
+    let e_nearest = rms(&frame.rgba, &reference.rgba);
+    eprintln!("nearest-plane bilinear: RMS vs bcc_linear {e_nearest:.3}/255");
+    assert!(e_nearest > 4.0 * e.max(0.1), "nearest-plane bilinear RMS {e_nearest:.3}/255");
+}
+
+#[test]
+fn ray_cast_schemes_pick_the_stack_from_the_view_and_skip_exactly() {
+    let gpu = Gpu::new(None).unwrap_or_else(|e| panic!("{e}"));
+    let base = schemes::base().unwrap();
+    let vol = LatticeVolume::marschner_lobb(&base.filter.lattice, [N, N, N]).unwrap();
+    let tf = TransferFunction::preset("marschner-lobb");
+    for scheme in schemes::ALL {
+        // Looking down z (elevation 80): the z stack, and not the x stack.
+        let o =
+            DvrOptions { width: 48, height: 48, frames: 0, azimuth: 20.0, elevation: 80.0, ..DvrOptions::default() };
+        let (frame, choice) = schemes::render(&gpu, &vol, scheme, &tf, &o).unwrap();
+        assert!(choice.contains("plane stack along z"), "{choice}");
+        let stack =
+            |axis: usize| schemes::scene(&gpu, &base, &vol, scheme, axis, o.block).unwrap().render(&tf, &o).unwrap();
+        let (z, x) = (stack(2), stack(0));
+        assert_eq!(rms(&frame.rgba, &z.rgba), 0.0, "{}: the chosen stack is z", scheme.name());
+        let other = rms(&frame.rgba, &x.rgba);
+        assert!(other > 0.5, "{}: the x stack gives another image (RMS {other:.2}/255)", scheme.name());
+        // Empty-space skipping with the widened bounds changes nothing (a
+        // slab of an affine volume: many blocks are transparent).
+        let slab = slab_tf();
+        let affine = affine_bcc(40, 0.0107);
+        let skip = schemes::scene(&gpu, &base, &affine, scheme, 2, o.block).unwrap();
+        let a = skip.render(&slab, &o).unwrap();
+        let b = skip.render(&slab, &DvrOptions { skip: false, ..o.clone() }).unwrap();
+        let e = rms(&a.rgba, &b.rgba);
+        eprintln!(
+            "{}: {choice}; x stack RMS {other:.2}/255; skip vs no skip {e:.4}/255, {:.0}% of blocks empty",
+            scheme.name(),
+            a.empty_blocks * 100.0
+        );
+        assert!(a.empty_blocks > 0.1 && e < 0.01, "{}: skipping changed the image by {e:.3}/255", scheme.name());
+    }
+}

@@ -64,7 +64,8 @@ fn reported_memory_is_the_papers_formula_applied_to_our_counts() {
             (cache.memory.gradient, c.candidates * m3 * 3),
             (cache.memory.sign, c.candidates * m3),
         ] {
-            assert!(part.abs_diff(want) <= 4, "part {part} vs {want}");
+            // Each part within 1% (a texture rounds its words up to whole rows).
+            assert!(part >= want && (part - want) * 100 <= want, "part {part} vs {want}");
         }
     }
 }

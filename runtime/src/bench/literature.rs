@@ -206,16 +206,34 @@ pub fn run(
                 crate::scene::from_cartesian(head, &d.filter.lattice, crate::scene::Conversion::Resample)
                     .map_err(|x| x.to_string())
             };
+            let view = crate::render::view_direction(o.azimuth, o.elevation);
             for (label, filter, call, _, _) in schemes() {
-                if !call.is_empty() {
-                    continue; // hand-written evaluations have no ray caster
-                }
                 progress(&format!("literature: {label} on the MNI head"));
-                let d = derive(filter)?;
+                let mut d = derive(filter)?;
                 let vol = volume_on(&d)?;
-                let frame = crate::dvr::render(gpu, &d, &vol, Layout::Embedded, &tf, &o).map_err(e)?;
+                let (frame, renderer) = if call.is_empty() {
+                    // View-dependent filters (sheared trilinear) ray cast the
+                    // variant of this view, as `render` does.
+                    let mut renderer = format!("{label}, ray cast");
+                    if d.filter.view_dependent {
+                        let (f, _) = d.filter.view_variant(view).map_err(|x| x.to_string())?;
+                        d = Derivation::new(&f).map_err(|x| x.to_string())?;
+                        renderer.push_str(" (the view's variant)");
+                    }
+                    (crate::dvr::render(gpu, &d, &vol, Layout::Embedded, &tf, &o).map_err(e)?, renderer)
+                } else {
+                    // The hand-written plane-stack schemes, stack chosen from the view.
+                    let scheme = if call.starts_with("mattausch_bilinear_spatial") {
+                        crate::schemes::Scheme::BilinearSpatial
+                    } else {
+                        crate::schemes::Scheme::Bilinear
+                    };
+                    let axis = crate::schemes::stack_for_view(view);
+                    let (frame, _) = crate::schemes::render(gpu, &vol, scheme, &tf, &o).map_err(e)?;
+                    (frame, format!("{label}, ray cast ({} stack, from the view)", ["x", "y", "z"][axis]))
+                };
                 mni_rows.push(MniRow {
-                    renderer: format!("{label}, ray cast"),
+                    renderer,
                     lattice: d.filter.lattice.name.clone(),
                     samples: vol.samples(),
                     ms_per_frame: frame.ms_per_frame,

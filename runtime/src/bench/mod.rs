@@ -215,9 +215,6 @@ pub struct BenchOptions {
     pub render_sizes: Vec<u32>,
     pub mni: Option<String>,
     pub quality: bool,
-    /// The PERM rows (`perm::rows`): the cache against direct evaluation
-    /// for the filters of `perm::FILTERS` among `filters`.
-    pub perm: bool,
     /// Time the built-in hand-written references (runtime/references/).
     pub references: bool,
     pub external: Option<External>,
@@ -241,7 +238,6 @@ impl BenchOptions {
             render_sizes: vec![],
             mni: None,
             quality: false,
-            perm: false,
             references: false,
             external: Some(external),
             ..BenchOptions::full()
@@ -260,7 +256,6 @@ impl BenchOptions {
             render_sizes: vec![256, 512],
             mni: crate::scene::data_file("mni152_t1_1mm.nii.gz").map(|p| p.display().to_string()),
             quality: true,
-            perm: true,
             references: true,
             external: None,
         }
@@ -277,7 +272,6 @@ impl BenchOptions {
             mni: None,
             quality: true,
             // Minutes of cache builds and DVR frames: not in a smoke run.
-            perm: false,
             references: false,
             external: None,
         }
@@ -894,10 +888,6 @@ pub fn run_with(
     // Direct volume rendering: skipping and pre-integration.
     rows.extend(dvr::rows(gpu, o, rounds, progress)?);
     snapshot(&rows, &gradient, &reference_rows);
-    if o.perm {
-        rows.extend(perm::rows(gpu, o, rounds, progress)?);
-        snapshot(&rows, &gradient, &reference_rows);
-    }
     let (quality, convergence) = if o.quality { quality(gpu, o, progress)? } else { (vec![], vec![]) };
     let clock = if gpu.timestamps {
         "GPU time of one dispatch from timestamp queries (throughput rows), wall time around submit + wait of one frame after a warm-up frame (render rows)"
@@ -1350,7 +1340,6 @@ pub fn markdown(r: &BenchReport, command: &str) -> String {
         );
     }
     s.push_str(&dvr::markdown(&r.rows));
-    s.push_str(&perm::markdown(&r.rows));
     let _ = writeln!(s, "\n## Analytic gradient vs central differences (Marschner-Lobb)\n\n| filter | analytic evals/s | central evals/s | speed-up median [min..max] | tie? | analytic angle error (°) | central angle error (°) |\n|---|---|---|---|---|---|---|");
     for g in &r.gradient {
         let (ratio, tie) = ratio_cells(&Some(g.speedup_ratio));

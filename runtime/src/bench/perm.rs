@@ -1,27 +1,30 @@
-//! PERM rows of `boxforge bench` (issue #14, part 3): for bcc_linear, bcc7,
+//! `boxforge bench --perm` (issue #14, part 3): for bcc_linear, bcc7,
 //! bcc12 and cc_tricubic, DVR ms/frame with the PERM cache
 //! ([`crate::perm`]) against direct evaluation (per-round ratios, the two
 //! interleaved), the cache's preprocessing time and memory (bytes per part,
-//! the paper's equation 6), and the RMS of its image against the direct one,
-//! for N = 3, 5, 10 and unequal (N, M) = (5, 3). On the MNI head (resampled
-//! on each filter's lattice after a box-average downsampling by
-//! [`HEAD_DOWNSAMPLE`] per axis: the full head at N = 10 would need more
-//! than the cache's 2 GiB limit, and lavapipe renders it slowly) with the
-//! `mni-tissue` preset, or Marschner-Lobb 24^3 with `marschner-lobb` when
-//! the run has no head (smoke).
+//! against the paper's equation 6 applied to the counts), and the RMS of its
+//! image against the direct one, for N = 3, 5, 10 and unequal (N, M) =
+//! (5, 3). On the MNI head (resampled on each filter's lattice after a
+//! box-average downsampling by [`HEAD_DOWNSAMPLE`] per axis, so that every
+//! filter's cache at N = 10 stays under the 2 GiB cache limit: the BCC
+//! filters' at 2 mm would need 6.5 GB) with the `mni-tissue` preset, or
+//! Marschner-Lobb 24^3 with `marschner-lobb` when the run has no head
+//! (smoke). Its own section of BENCHMARKS.md, which the full bench keeps.
 
 use super::stats::{median, round_order, Ratio};
-use super::{BenchOptions, BenchRow};
 use crate::dvr::{rms, DvrOptions, DvrScene};
 use crate::gpu::Gpu;
-use crate::perm::{PermCache, Quant};
+use crate::perm::{formula, Memory, PermCache, Quant};
 use crate::transfer::TransferFunction;
 use crate::volume::{LatticeVolume, Volume};
 use boxforge::derive::Derivation;
 use boxforge::emit::Layout;
+use serde::Serialize;
+use std::fmt::Write as _;
 
-/// Prefix of the PERM rows' `kind`.
-pub const KIND: &str = "perm";
+pub const SECTION_START: &str = "<!-- perm-bench:start -->";
+pub const SECTION_END: &str = "<!-- perm-bench:end -->";
+
 /// The filters of the issue.
 pub const FILTERS: [&str; 4] = ["bcc_linear", "bcc7", "bcc12", "cc_tricubic"];
 /// (N, M): density and gradient positions per cell axis.
@@ -29,7 +32,7 @@ pub const QUANTS: [(u32, u32); 4] = [(3, 3), (5, 5), (10, 10), (5, 3)];
 /// Segment length of the timed frames (cells).
 pub const STEP: f32 = 0.5;
 /// Box-average factor per axis applied to the MNI head before resampling.
-pub const HEAD_DOWNSAMPLE: usize = 2;
+pub const HEAD_DOWNSAMPLE: usize = 4;
 
 /// `v` box-averaged over `f`^3 blocks (a partial last block averages what it has).
 pub fn downsample(v: &Volume, f: usize) -> Volume {
@@ -55,24 +58,69 @@ pub fn downsample(v: &Volume, f: usize) -> Volume {
     Volume { dims, data }
 }
 
-/// The PERM rows at the run's first render size (none without one), for
-/// the filters of [`FILTERS`] that the run measures.
-pub fn rows(gpu: &Gpu, o: &BenchOptions, rounds: usize, progress: &dyn Fn(&str)) -> Result<Vec<BenchRow>, String> {
-    let Some(&size) = o.render_sizes.first() else {
-        return Ok(vec![]);
-    };
-    let head = match &o.mni {
-        Some(path) => Some(Volume::load_nifti(std::path::Path::new(path)).map_err(|x| x.to_string())?),
-        None => None,
-    };
-    let mut out = vec![];
-    for name in FILTERS.into_iter().filter(|f| o.filters.iter().any(|x| x == f)) {
+/// One (filter, N, M): the cache against direct evaluation on one volume.
+#[derive(Clone, Debug, Serialize)]
+pub struct PermRow {
+    pub filter: String,
+    /// "mni_down4" or "ml".
+    pub volume: String,
+    pub samples: usize,
+    pub density: u32,
+    pub gradient: u32,
+    /// Cells of the volume (S) and candidate cells (N_cc).
+    pub cells: u64,
+    pub candidates: u64,
+    pub preprocess_ms: f64,
+    /// Bytes allocated, per part.
+    pub memory: Memory,
+    /// The paper's equation 6 applied to the same counts (bytes).
+    pub formula_bytes: u64,
+    /// Medians over the rounds (ms/frame).
+    pub direct_ms: f64,
+    pub perm_ms: f64,
+    /// direct ÷ PERM time, per round: above 1 the cache is faster.
+    pub speedup: Ratio,
+    /// RMS of the PERM image against the direct one (of 255).
+    pub rms: f64,
+}
+
+/// A cache that could not be built (the reason, e.g. over the limit).
+#[derive(Clone, Debug, Serialize)]
+pub struct Refused {
+    pub filter: String,
+    pub density: u32,
+    pub gradient: u32,
+    pub reason: String,
+}
+
+/// `boxforge bench --perm`.
+#[derive(Clone, Debug, Serialize)]
+pub struct PermReport {
+    pub adapter: String,
+    pub size: u32,
+    pub rounds: usize,
+    pub rows: Vec<PermRow>,
+    pub refused: Vec<Refused>,
+}
+
+/// Every filter of [`FILTERS`] at every (N, M) of [`QUANTS`] on `head`
+/// (downsampled by [`HEAD_DOWNSAMPLE`]) or, without one, Marschner-Lobb 24^3;
+/// frames of `size`^2, `rounds` interleaved rounds.
+pub fn run(
+    gpu: &Gpu,
+    head: Option<&Volume>,
+    size: u32,
+    rounds: usize,
+    progress: &dyn Fn(&str),
+) -> Result<PermReport, String> {
+    let small = head.map(|h| downsample(h, HEAD_DOWNSAMPLE));
+    let mut report = PermReport { adapter: gpu.describe(), size, rounds: rounds.max(1), rows: vec![], refused: vec![] };
+    for name in FILTERS {
         let d =
             Derivation::new(&boxforge::spec::resolve(name).map_err(|x| x.to_string())?).map_err(|x| x.to_string())?;
-        let (vol, tf, what, view) = match &head {
+        let (vol, tf, what, view) = match &small {
             Some(h) => {
-                let small = downsample(h, HEAD_DOWNSAMPLE);
-                let v = crate::scene::from_cartesian(&small, &d.filter.lattice, crate::scene::Conversion::Resample)
+                let v = crate::scene::from_cartesian(h, &d.filter.lattice, crate::scene::Conversion::Resample)
                     .map_err(|x| x.to_string())?;
                 (v, TransferFunction::preset("mni-tissue"), format!("mni_down{HEAD_DOWNSAMPLE}"), (200.0, 15.0))
             }
@@ -81,14 +129,15 @@ pub fn rows(gpu: &Gpu, o: &BenchOptions, rounds: usize, progress: &dyn Fn(&str))
                 (v, TransferFunction::preset("marschner-lobb"), "ml".to_string(), (30.0, 25.0))
             }
         };
-        out.extend(filter_rows(gpu, &d, &vol, &tf, (&what, view, size), rounds, progress)?);
+        measure_filter(gpu, &d, &vol, &tf, (&what, view, size), report.rounds, progress, &mut report)?;
     }
-    Ok(out)
+    Ok(report)
 }
 
-/// The rows of one filter on one volume: the direct row, then one per
-/// (N, M) of [`QUANTS`] (ms/frame, ratio direct ÷ PERM time, bytes).
-pub fn filter_rows(
+/// The rows of one filter on one volume, one per (N, M) of [`QUANTS`]: the
+/// direct frames and the PERM frames interleaved in the same rounds.
+#[allow(clippy::too_many_arguments)]
+fn measure_filter(
     gpu: &Gpu,
     d: &Derivation,
     vol: &LatticeVolume,
@@ -96,11 +145,10 @@ pub fn filter_rows(
     (what, view, size): (&str, (f32, f32), u32),
     rounds: usize,
     progress: &dyn Fn(&str),
-) -> Result<Vec<BenchRow>, String> {
+    report: &mut PermReport,
+) -> Result<(), String> {
     let e = |x: crate::gpu::GpuError| x.to_string();
     let name = &d.filter.name;
-    let kind = format!("{KIND}_{what}_{size}");
-    progress(&format!("{name} PERM {what} {size}^2 ({} samples, {}): direct", vol.samples(), tf.name));
     let scene = DvrScene::new(gpu, d, vol, Layout::Embedded, 4).map_err(e)?;
     let o = DvrOptions {
         width: size,
@@ -114,18 +162,17 @@ pub fn filter_rows(
     let table = tf.table();
     let pi = table.preintegrate(STEP as f64);
     let reference = scene.render_tables(&table, Some(&pi), &DvrOptions { frames: 0, ..o.clone() }).map_err(e)?;
-    let mut direct_all = vec![];
-    let mut rows = vec![];
     for (n, m) in QUANTS {
         let quant = Quant { density: n, gradient: m };
-        progress(&format!("{name} PERM {what} {size}^2: N={n} M={m}, preprocessing and {rounds} rounds"));
+        progress(&format!(
+            "{name} PERM {what} ({} samples, {}) N={n} M={m}: preprocessing, then {rounds} rounds at {size}^2",
+            vol.samples(),
+            tf.name
+        ));
         let cache = match PermCache::build(&scene, &table, quant, STEP, true) {
             Ok(c) => c,
             Err(x) => {
-                let mut row =
-                    BenchRow::render(name, &kind, format!("PERM N={n} M={m}: not built: {x}"), 0.0, None, None);
-                row.ms_per_frame = None;
-                rows.push(row);
+                report.refused.push(Refused { filter: name.clone(), density: n, gradient: m, reason: x.to_string() });
                 continue;
             }
         };
@@ -141,78 +188,103 @@ pub fn filter_rows(
         }
         let image = cache.render(&scene, &table, Some(&pi), &DvrOptions { frames: 0, ..o.clone() }).map_err(e)?;
         let c = cache.counts;
-        let mut row = BenchRow::render(
-            name,
-            &kind,
-            format!(
-                "PERM N={n} M={m}: {} of {} cells cached, preprocessing {:.0} ms, memory {}, RMS vs direct {:.2}/255",
-                c.candidates,
-                c.cells,
-                cache.preprocess_ms,
-                cache.memory.describe(),
-                rms(&image.rgba, &reference.rgba)
-            ),
-            median(&perm),
-            Some(Ratio::of_rates(&direct, &perm)),
-            Some("direct evaluation ÷ PERM (time)".into()),
-        );
-        row.bytes = Some(cache.memory.total() as usize);
-        rows.push(row);
-        direct_all.extend(direct);
+        report.rows.push(PermRow {
+            filter: name.clone(),
+            volume: what.to_string(),
+            samples: vol.samples(),
+            density: n,
+            gradient: m,
+            cells: c.cells,
+            candidates: c.candidates,
+            preprocess_ms: cache.preprocess_ms,
+            memory: cache.memory,
+            formula_bytes: formula(&c).total(),
+            direct_ms: median(&direct),
+            perm_ms: median(&perm),
+            speedup: Ratio::of_rates(&direct, &perm),
+            rms: rms(&image.rgba, &reference.rgba),
+        });
     }
-    let mut all = vec![BenchRow::render(
-        name,
-        &kind,
-        format!("DVR step {STEP}, direct evaluation"),
-        median(&direct_all),
-        None,
-        None,
-    )];
-    all.extend(rows);
-    Ok(all)
+    Ok(())
 }
 
-/// Where the cache wins: the (filter, N, M) whose ratio direct ÷ PERM is
-/// above 1 in every round, as one sentence.
-pub fn verdict(rows: &[BenchRow]) -> String {
-    let perm: Vec<&BenchRow> = rows.iter().filter(|r| r.kind.starts_with(KIND) && r.ratio.is_some()).collect();
-    if perm.is_empty() {
-        return "No PERM rows were measured.".into();
+/// Where the cache wins: the (filter, N, M) whose speed-up is above 1 in
+/// every round, as one sentence.
+pub fn verdict(rows: &[PermRow]) -> String {
+    if rows.is_empty() {
+        return "No PERM cache was measured.".into();
     }
-    let label = |r: &BenchRow| {
-        let q = r.variant.split(':').next().unwrap_or("").trim_start_matches("PERM ");
-        format!("{} {q} ({:.2}x)", r.filter, r.ratio.unwrap().median)
-    };
-    let wins: Vec<String> = perm.iter().filter(|r| r.ratio.unwrap().min > 1.0).map(|r| label(r)).collect();
-    let losses: Vec<String> = perm.iter().filter(|r| r.ratio.unwrap().max < 1.0).map(|r| label(r)).collect();
-    let ties = perm.len() - wins.len() - losses.len();
+    let label = |r: &PermRow| format!("{} N={} M={} ({:.2}x)", r.filter, r.density, r.gradient, r.speedup.median);
+    let wins: Vec<String> = rows.iter().filter(|r| r.speedup.min > 1.0).map(label).collect();
+    let losses: Vec<String> = rows.iter().filter(|r| r.speedup.max < 1.0).map(label).collect();
+    let ties: Vec<String> = rows.iter().filter(|r| r.speedup.tie).map(label).collect();
     format!(
-        "On this adapter the PERM cache wins (faster than direct evaluation in every round) for {}; it loses for {}{}.",
+        "On this adapter the PERM cache wins (faster than direct evaluation in every round) for {}; it loses (slower in every round) for {}; {}.",
         if wins.is_empty() { "no filter and N".into() } else { wins.join(", ") },
         if losses.is_empty() { "none".into() } else { losses.join(", ") },
-        if ties > 0 { format!("; {ties} tie(s)") } else { String::new() }
+        if ties.is_empty() { "no ties".into() } else { format!("the rounds disagree (a tie) for {}", ties.join(", ")) }
     )
 }
 
-/// The markdown paragraph on the PERM rows of a report (empty without them).
-pub fn markdown(rows: &[BenchRow]) -> String {
-    let perm: Vec<&BenchRow> = rows.iter().filter(|r| r.kind.starts_with(KIND)).collect();
-    if perm.is_empty() {
-        return String::new();
+/// The markdown section (between [`SECTION_START`] and [`SECTION_END`]).
+pub fn markdown(r: &PermReport, command: &str) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "{SECTION_START}\n## PERM (Lim and Shin)\n");
+    let what = r.rows.first().map_or("", |x| x.volume.as_str());
+    let data = if what.starts_with("mni") {
+        format!("the MNI head box-averaged by {HEAD_DOWNSAMPLE} per axis (4 mm) and resampled on each filter's lattice, mni-tissue preset")
+    } else {
+        "Marschner-Lobb 24^3 with its preset".to_string()
+    };
+    let _ = writeln!(
+        s,
+        "Written by `{command}` on {}. `render --mode dvr --cache perm --qc N --qc-grad M`: density and analytic gradient precomputed on the device at N^3 and M^3 positions of every cell the transfer function shows (dilated by one cell for pre-integration), looked up by the ray caster (nearest position). Data: {data}; {}^2 frames, step {STEP}, pre-integrated, TF skipping; direct and PERM frames interleaved in {} round(s) (speed-up: direct ÷ PERM time per round, median [min..max], a tie when the range spans 1). Memory: bytes allocated per part (index volume + summed-area table / densities / gradient magnitudes + signs), against the paper's equation 6 with b_iv = 2, b_db = 2, 3 gradient bytes and a sign byte, plus the 4-byte summed-area entry per row.\n",
+        r.adapter, r.size, r.rounds
+    );
+    let _ = writeln!(s, "| filter | N | M | samples | candidate cells | preprocessing | memory: index + SAT / densities / gradients + signs | memory vs formula | direct ms/frame | PERM ms/frame | speed-up | tie? | RMS vs direct |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    for x in &r.rows {
+        let m = &x.memory;
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} | {} of {} | {:.0} ms | {} + {} / {} / {} + {} = {} bytes | {:+.3}% | {:.1} | {:.1} | {:.2} [{:.2}..{:.2}] | {} | {:.2}/255 |",
+            x.filter,
+            x.density,
+            x.gradient,
+            x.samples,
+            x.candidates,
+            x.cells,
+            x.preprocess_ms,
+            m.index_volume,
+            m.summed_area,
+            m.density,
+            m.gradient,
+            m.sign,
+            m.total(),
+            (m.total() as f64 / x.formula_bytes as f64 - 1.0) * 100.0,
+            x.direct_ms,
+            x.perm_ms,
+            x.speedup.median,
+            x.speedup.min,
+            x.speedup.max,
+            if x.speedup.tie { "tie" } else { "" },
+            x.rms
+        );
     }
-    let lines: Vec<String> = perm
-        .iter()
-        .map(|r| {
-            let ms = r.ms_per_frame.map_or("-".into(), |m| format!("{m:.1} ms"));
-            let ratio = r.ratio.map_or(String::new(), |x| format!(", direct ÷ PERM {}", x.display()));
-            format!("- {} {}: {} ({ms}{ratio})", r.filter, r.kind, r.variant)
-        })
-        .collect();
-    format!(
-        "\n### PERM (Lim and Shin)\n\n`render --mode dvr --cache perm --qc N --qc-grad M`: density and gradient precomputed on the device at N^3 and M^3 positions of every cell the transfer function shows (dilated by one cell for pre-integration), looked up by the ray caster; step {STEP}, pre-integrated, TF skipping, ms/frame timed in interleaved rounds against direct evaluation; memory in bytes per part (the paper's equation 6 with 2-byte index and density entries, 3 + 1 gradient bytes).\n\n{}\n\n{}\n",
-        lines.join("\n"),
-        verdict(rows)
-    )
+    for f in &r.refused {
+        let _ = writeln!(s, "\nNot built: {} N={} M={}: {}", f.filter, f.density, f.gradient, f.reason);
+    }
+    let _ = writeln!(s, "\n{}\n{SECTION_END}", verdict(&r.rows));
+    s
+}
+
+/// `file` with this section replaced (or appended).
+pub fn splice(file: &str, section: &str) -> String {
+    super::derive::splice_between(file, section, SECTION_START, SECTION_END)
+}
+
+/// This section of `file`, if it has one (kept when the GPU bench rewrites the file).
+pub fn existing_section(file: &str) -> Option<&str> {
+    super::derive::section_between(file, SECTION_START, SECTION_END)
 }
 
 #[cfg(test)]
@@ -227,18 +299,55 @@ mod tests {
         assert_eq!(s.data, vec![4.0, 15.0]);
     }
 
+    fn row(f: &str, n: u32, min: f64, max: f64) -> PermRow {
+        PermRow {
+            filter: f.into(),
+            volume: "ml".into(),
+            samples: 1,
+            density: n,
+            gradient: n,
+            cells: 1,
+            candidates: 1,
+            preprocess_ms: 1.0,
+            memory: Memory { index_volume: 2, summed_area: 4, density: 2, gradient: 3, sign: 1 },
+            formula_bytes: 12,
+            direct_ms: 1.0,
+            perm_ms: 1.0,
+            speedup: Ratio { median: (min + max) / 2.0, min, max, rounds: 3, tie: min <= 1.0 && max >= 1.0 },
+            rms: 0.5,
+        }
+    }
+
     #[test]
-    fn the_verdict_names_wins_and_losses() {
-        let row = |f: &str, q: &str, min: f64, max: f64| BenchRow {
-            ratio: Some(Ratio { median: (min + max) / 2.0, min, max, rounds: 3, tie: min <= 1.0 && max >= 1.0 }),
-            ..BenchRow::render(f, "perm_ml_64", format!("PERM {q}: ..."), 1.0, None, None)
+    fn the_verdict_names_wins_losses_and_ties() {
+        let v = verdict(&[row("bcc12", 5, 1.5, 2.5), row("bcc_linear", 10, 0.5, 0.7), row("bcc7", 3, 0.9, 1.1)]);
+        assert!(v.contains("wins") && v.contains("for bcc12 N=5 M=5 (2.00x)"), "{v}");
+        assert!(v.contains("loses (slower in every round) for bcc_linear N=10 M=10 (0.60x)"), "{v}");
+        assert!(v.contains("a tie) for bcc7 N=3 M=3"), "{v}");
+        // Flipped: the loss becomes a win.
+        let v = verdict(&[row("bcc_linear", 10, 1.2, 1.4)]);
+        assert!(
+            v.contains("wins (faster than direct evaluation in every round) for bcc_linear")
+                && v.contains("loses (slower in every round) for none"),
+            "{v}"
+        );
+    }
+
+    #[test]
+    fn the_section_splices_into_a_file_and_is_found_again() {
+        let r = PermReport {
+            adapter: "a".into(),
+            size: 8,
+            rounds: 1,
+            rows: vec![row("bcc7", 5, 1.1, 1.2)],
+            refused: vec![],
         };
-        let v = verdict(&[
-            row("bcc12", "N=5 M=5", 1.5, 2.5),
-            row("bcc_linear", "N=10 M=10", 0.5, 0.7),
-            row("bcc7", "N=3 M=3", 0.9, 1.1),
-        ]);
-        assert!(v.contains("wins") && v.contains("bcc12 N=5 M=5 (2.00x)"), "{v}");
-        assert!(v.contains("loses for bcc_linear N=10 M=10") && v.contains("1 tie"), "{v}");
+        let md = markdown(&r, "boxforge bench --perm");
+        assert!(md.contains("| bcc7 | 5 | 5 |") && md.contains("+0.000%"), "{md}");
+        let file = splice("# Benchmarks\n\nbody\n", &md);
+        assert!(file.starts_with("# Benchmarks") && file.contains(SECTION_END));
+        assert_eq!(existing_section(&file).map(str::trim), Some(md.trim()));
+        let again = splice(&file, &md);
+        assert_eq!(again.matches(SECTION_START).count(), 1);
     }
 }
