@@ -156,6 +156,10 @@ enum Command {
         /// --cache perm: gradient positions per cell axis (M^3 per cell; default --qc).
         #[arg(long)]
         qc_grad: Option<u32>,
+        /// --cache perm: opaque-boundary peeling (drop the cached cells no ray reaches before it
+        /// terminates; the image is unchanged for views from outside the volume).
+        #[arg(long)]
+        peel: bool,
         #[arg(long)]
         filter: String,
         /// `ml:N` (Marschner-Lobb, about N^3 samples), a .nii/.nii.gz file, or a raw file with --raw.
@@ -407,6 +411,7 @@ fn run(cli: Cli) -> Result<(), Failure> {
             shading,
             qc,
             qc_grad,
+            peel,
             filter,
             volume,
             raw,
@@ -429,6 +434,9 @@ fn run(cli: Cli) -> Result<(), Failure> {
             request::check_output_file(&out, "--out").map_err(Failure)?;
             let dvr = request::check_render_mode(&mode, tf.as_deref(), no_preintegration).map_err(Failure)?;
             let perm = boxforge_runtime::perm::check_request(&cache, &mode, qc, qc_grad).map_err(Failure)?;
+            if peel && perm.is_none() {
+                return Err(Failure("--peel peels the PERM cache: add --cache perm (with --mode dvr)".into()));
+            }
             let pt = request::check_renderer(&renderer, &mode, &cache, perspective).map_err(Failure)?;
             let tf = match &dvr {
                 Some(name) => Some(boxforge_runtime::transfer::TransferFunction::load(name).map_err(Failure)?),
@@ -539,7 +547,10 @@ fn run(cli: Cli) -> Result<(), Failure> {
                                 f
                             })
                         }
-                        Some(q) => boxforge_runtime::perm::render(&gpu, &d, &vol, layout, tf, &o, q).map(|(f, c)| {
+                        Some(q) => boxforge_runtime::perm::render(&gpu, &d, &vol, layout, tf, &o, q, peel).map(|(f, c)| {
+                            if peel {
+                                eprintln!("opaque-boundary peeling: {} candidate cells no ray reaches dropped", c.peeled);
+                            }
                             let n = c.counts;
                             eprintln!(
                                 "PERM N={} M={}: {} of {} cells cached ({} visible), {:.0} ms preprocessing, {}",

@@ -52,14 +52,15 @@ fn perm_bench_measures_every_filter_and_n() {
     let gpu = boxforge_runtime::gpu::Gpu::new(None).unwrap_or_else(|e| panic!("{e}"));
     let r = perm::run(&gpu, None, 24, 1, &|_| {}).unwrap();
     assert!(r.refused.is_empty(), "{:?}", r.refused);
-    assert_eq!(r.rows.len(), perm::FILTERS.len() * perm::QUANTS.len());
+    assert_eq!(r.rows.len(), perm::FILTERS.len() * (perm::QUANTS.len() + 1));
     for x in &r.rows {
         let off = (x.memory.total() as f64 / x.formula_bytes as f64 - 1.0).abs();
         assert!(off < 0.01, "{} N={}: {} bytes vs formula {}", x.filter, x.density, x.memory.total(), x.formula_bytes);
         assert!(x.direct_ms > 0.0 && x.perm_ms > 0.0 && x.speedup.rounds == 1, "{x:?}");
     }
     for f in perm::FILTERS {
-        let rms = |n: u32| r.rows.iter().find(|x| x.filter == f && x.density == n && x.gradient == n).unwrap().rms;
+        let rms =
+            |n: u32| r.rows.iter().find(|x| x.filter == f && x.density == n && x.gradient == n && !x.peel).unwrap().rms;
         assert!(rms(10) < rms(3), "{f}: RMS at N=10 {:.2} vs N=3 {:.2}", rms(10), rms(3));
     }
     let md = perm::markdown(&r, "test");

@@ -172,6 +172,68 @@ fn candidate_cells_and_cached_values_match_cpu_computations() {
     }
 }
 
+/// An opaque ball (0.9 inside radius 12, 0.1 outside radius 16, a smooth rim) on CC.
+fn ball(n: usize) -> LatticeVolume {
+    let lattice = boxforge::spec::lattice::Lattice::builtin("cc").unwrap();
+    let c = (n as f64 - 1.0) / 2.0;
+    let mut data = Vec::with_capacity(n * n * n);
+    for z in 0..n {
+        for y in 0..n {
+            for x in 0..n {
+                let r = ((x as f64 - c).powi(2) + (y as f64 - c).powi(2) + (z as f64 - c).powi(2)).sqrt();
+                let t = ((r - 14.0) / 2.0).clamp(-1.0, 1.0);
+                data.push((0.5 - 0.4 * t) as f32);
+            }
+        }
+    }
+    LatticeVolume { lattice, dims: [n; 3], data }
+}
+
+#[test]
+fn peeling_drops_unreachable_cells_and_leaves_the_image_unchanged() {
+    let gpu = gpu();
+    let d = derive("cc_tricubic");
+    let vol = ball(40);
+    let scene = DvrScene::new(&gpu, &d, &vol, Layout::Embedded, 4).unwrap();
+    let tf = TransferFunction::parse(
+        r#"{"range": [0, 1], "points": [{"value": 0, "color": [0, 0, 0], "opacity": 0},
+            {"value": 0.4, "color": [0.3, 0.5, 0.9], "opacity": 0}, {"value": 0.6, "color": [1, 0.8, 0.5], "opacity": 0.9},
+            {"value": 1, "color": [1, 0.8, 0.5], "opacity": 0.9}]}"#,
+        "ball",
+    )
+    .unwrap();
+    let table = tf.table();
+    let o = options();
+    let pi = table.preintegrate(o.step as f64);
+    let quant = Quant { density: 3, gradient: 3 };
+    let full = PermCache::build(&scene, &table, quant, o.step, true).unwrap();
+    let peeled = PermCache::build_peeled(&scene, &table, quant, o.step, true, Some(o.termination)).unwrap();
+    eprintln!(
+        "ball: {} candidates, {} peeled; memory {} -> {} bytes",
+        full.counts.candidates,
+        peeled.peeled,
+        full.memory.total(),
+        peeled.memory.total()
+    );
+    assert!(peeled.peeled > 100, "the ball's core is unreachable: {} peeled", peeled.peeled);
+    assert_eq!(peeled.counts.candidates + peeled.peeled, full.counts.candidates);
+    assert!(peeled.memory.total() < full.memory.total());
+    for (az, el) in [(30.0, 25.0), (200.0, -40.0), (95.0, 70.0)] {
+        let o = DvrOptions { azimuth: az, elevation: el, ..options() };
+        let a = full.render(&scene, &table, Some(&pi), &o).unwrap();
+        let b = peeled.render(&scene, &table, Some(&pi), &o).unwrap();
+        let diff = a.rgba.iter().zip(&b.rgba).map(|(x, y)| x.abs_diff(*y)).max().unwrap();
+        assert_eq!(diff, 0, "view ({az}, {el}): peeling changed a pixel by {diff}/255");
+    }
+    // The image sees the ball (the comparison is not between two empty frames)...
+    let direct = scene.render_tables(&table, Some(&pi), &o).unwrap();
+    let lit = direct.rgba.chunks(4).filter(|p| p[0] > 100).count();
+    assert!(lit > 200, "{lit} bright pixels");
+    // ...and rays that would go deeper than the peeling assumed are refused.
+    let deeper = DvrOptions { termination: 0.999, ..options() };
+    assert!(peeled.render(&scene, &table, Some(&pi), &deeper).is_err());
+}
+
 #[test]
 fn bad_cache_options_are_one_line_and_exit_2_before_any_gpu_work() {
     let out = std::env::temp_dir().join(format!("boxforge-perm-{}.png", std::process::id()));
@@ -184,6 +246,7 @@ fn bad_cache_options_are_one_line_and_exit_2_before_any_gpu_work() {
         (&["--cache", "perm"][..], "--mode iso"),
         (&["--mode", "dvr", "--tf", "marschner-lobb", "--cache", "lru"][..], "--cache lru"),
         (&["--mode", "dvr", "--tf", "marschner-lobb", "--qc", "5"][..], "add --cache perm"),
+        (&["--mode", "dvr", "--tf", "marschner-lobb", "--peel"][..], "--peel peels the PERM cache"),
     ] {
         let o = std::process::Command::new(env!("CARGO_BIN_EXE_boxforge"))
             .args(base.iter().chain(extra))

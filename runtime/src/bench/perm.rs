@@ -4,7 +4,7 @@
 //! interleaved), the cache's preprocessing time and memory (bytes per part,
 //! against the paper's equation 6 applied to the counts), and the RMS of its
 //! image against the direct one, for N = 3, 5, 10 and unequal (N, M) =
-//! (5, 3). On the MNI head (resampled on each filter's lattice after a
+//! (5, 3), and (5, 3) once more with opaque-boundary peeling. On the MNI head (resampled on each filter's lattice after a
 //! box-average downsampling by [`HEAD_DOWNSAMPLE`] per axis, so that every
 //! filter's cache at N = 10 stays under the 2 GiB cache limit: the BCC
 //! filters' at 2 mm would need 6.5 GB) with the `mni-tissue` preset, or
@@ -29,6 +29,8 @@ pub const SECTION_END: &str = "<!-- perm-bench:end -->";
 pub const FILTERS: [&str; 4] = ["bcc_linear", "bcc7", "bcc12", "cc_tricubic"];
 /// (N, M): density and gradient positions per cell axis.
 pub const QUANTS: [(u32, u32); 4] = [(3, 3), (5, 5), (10, 10), (5, 3)];
+/// The (N, M) measured once more with opaque-boundary peeling.
+pub const PEELED: (u32, u32) = (5, 3);
 /// Segment length of the timed frames (cells).
 pub const STEP: f32 = 0.5;
 /// Box-average factor per axis applied to the MNI head before resampling.
@@ -67,6 +69,9 @@ pub struct PermRow {
     pub samples: usize,
     pub density: u32,
     pub gradient: u32,
+    /// Opaque-boundary peeling on, and the candidate cells it dropped.
+    pub peel: bool,
+    pub peeled: u64,
     /// Cells of the volume (S) and candidate cells (N_cc).
     pub cells: u64,
     pub candidates: u64,
@@ -90,6 +95,7 @@ pub struct Refused {
     pub filter: String,
     pub density: u32,
     pub gradient: u32,
+    pub peel: bool,
     pub reason: String,
 }
 
@@ -162,17 +168,25 @@ fn measure_filter(
     let table = tf.table();
     let pi = table.preintegrate(STEP as f64);
     let reference = scene.render_tables(&table, Some(&pi), &DvrOptions { frames: 0, ..o.clone() }).map_err(e)?;
-    for (n, m) in QUANTS {
+    let configs = QUANTS.iter().map(|&q| (q, false)).chain([(PEELED, true)]);
+    for ((n, m), peel) in configs {
         let quant = Quant { density: n, gradient: m };
+        let peeling = if peel { ", peeled" } else { "" };
         progress(&format!(
-            "{name} PERM {what} ({} samples, {}) N={n} M={m}: preprocessing, then {rounds} rounds at {size}^2",
+            "{name} PERM {what} ({} samples, {}) N={n} M={m}{peeling}: preprocessing, then {rounds} rounds at {size}^2",
             vol.samples(),
             tf.name
         ));
-        let cache = match PermCache::build(&scene, &table, quant, STEP, true) {
+        let cache = match PermCache::build_peeled(&scene, &table, quant, STEP, true, peel.then_some(o.termination)) {
             Ok(c) => c,
             Err(x) => {
-                report.refused.push(Refused { filter: name.clone(), density: n, gradient: m, reason: x.to_string() });
+                report.refused.push(Refused {
+                    filter: name.clone(),
+                    density: n,
+                    gradient: m,
+                    peel,
+                    reason: x.to_string(),
+                });
                 continue;
             }
         };
@@ -194,6 +208,8 @@ fn measure_filter(
             samples: vol.samples(),
             density: n,
             gradient: m,
+            peel,
+            peeled: cache.peeled,
             cells: c.cells,
             candidates: c.candidates,
             preprocess_ms: cache.preprocess_ms,
@@ -214,7 +230,10 @@ pub fn verdict(rows: &[PermRow]) -> String {
     if rows.is_empty() {
         return "No PERM cache was measured.".into();
     }
-    let label = |r: &PermRow| format!("{} N={} M={} ({:.2}x)", r.filter, r.density, r.gradient, r.speedup.median);
+    let label = |r: &PermRow| {
+        let peel = if r.peel { " peeled" } else { "" };
+        format!("{} N={} M={}{peel} ({:.2}x)", r.filter, r.density, r.gradient, r.speedup.median)
+    };
     let wins: Vec<String> = rows.iter().filter(|r| r.speedup.min > 1.0).map(label).collect();
     let losses: Vec<String> = rows.iter().filter(|r| r.speedup.max < 1.0).map(label).collect();
     let ties: Vec<String> = rows.iter().filter(|r| r.speedup.tie).map(label).collect();
@@ -238,18 +257,19 @@ pub fn markdown(r: &PermReport, command: &str) -> String {
     };
     let _ = writeln!(
         s,
-        "Written by `{command}` on {}. `render --mode dvr --cache perm --qc N --qc-grad M`: density and analytic gradient precomputed on the device at N^3 and M^3 positions of every cell the transfer function shows (dilated by one cell for pre-integration), looked up by the ray caster (nearest position). Data: {data}; {}^2 frames, step {STEP}, pre-integrated, TF skipping; direct and PERM frames interleaved in {} round(s) (speed-up: direct ÷ PERM time per round, median [min..max], a tie when the range spans 1). Memory: bytes allocated per part (index volume + summed-area table / densities / gradient magnitudes + signs), against the paper's equation 6 with b_iv = 2, b_db = 2, 3 gradient bytes and a sign byte, plus the 4-byte summed-area entry per row.\n",
+        "Written by `{command}` on {}. `render --mode dvr --cache perm --qc N --qc-grad M`: density and analytic gradient precomputed on the device at N^3 and M^3 positions of every cell the transfer function shows (dilated by one cell for pre-integration), looked up by the ray caster (nearest position). Data: {data}; {}^2 frames, step {STEP}, pre-integrated, TF skipping; direct and PERM frames interleaved in {} round(s) (speed-up: direct ÷ PERM time per round, median [min..max], a tie when the range spans 1). Memory: bytes allocated per part (index volume + summed-area table / densities / gradient magnitudes + signs), against the paper's equation 6 with b_iv = 2, b_db = 2, 3 gradient bytes and a sign byte, plus the 4-byte summed-area entry per row. Peeled: `--peel`, opaque-boundary peeling (runtime/src/perm.rs, `peel`), which drops the candidate cells no ray from outside reaches before it terminates at opacity 0.99; the image is the unpeeled cache's.\n",
         r.adapter, r.size, r.rounds
     );
-    let _ = writeln!(s, "| filter | N | M | samples | candidate cells | preprocessing | memory: index + SAT / densities / gradients + signs | memory vs formula | direct ms/frame | PERM ms/frame | speed-up | tie? | RMS vs direct |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    let _ = writeln!(s, "| filter | N | M | peeled | samples | candidate cells | preprocessing | memory: index + SAT / densities / gradients + signs | memory vs formula | direct ms/frame | PERM ms/frame | speed-up | tie? | RMS vs direct |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for x in &r.rows {
         let m = &x.memory;
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {} | {} of {} | {:.0} ms | {} + {} / {} / {} + {} = {} bytes | {:+.3}% | {:.1} | {:.1} | {:.2} [{:.2}..{:.2}] | {} | {:.2}/255 |",
+            "| {} | {} | {} | {} | {} | {} of {} | {:.0} ms | {} + {} / {} / {} + {} = {} bytes | {:+.3}% | {:.1} | {:.1} | {:.2} [{:.2}..{:.2}] | {} | {:.2}/255 |",
             x.filter,
             x.density,
             x.gradient,
+            if x.peel { format!("{} cells", x.peeled) } else { "no".into() },
             x.samples,
             x.candidates,
             x.cells,
@@ -271,7 +291,8 @@ pub fn markdown(r: &PermReport, command: &str) -> String {
         );
     }
     for f in &r.refused {
-        let _ = writeln!(s, "\nNot built: {} N={} M={}: {}", f.filter, f.density, f.gradient, f.reason);
+        let peel = if f.peel { " peeled" } else { "" };
+        let _ = writeln!(s, "\nNot built: {} N={} M={}{peel}: {}", f.filter, f.density, f.gradient, f.reason);
     }
     let _ = writeln!(s, "\n{}\n{SECTION_END}", verdict(&r.rows));
     s
@@ -306,6 +327,8 @@ mod tests {
             samples: 1,
             density: n,
             gradient: n,
+            peel: false,
+            peeled: 0,
             cells: 1,
             candidates: 1,
             preprocess_ms: 1.0,
@@ -343,7 +366,7 @@ mod tests {
             refused: vec![],
         };
         let md = markdown(&r, "boxforge bench --perm");
-        assert!(md.contains("| bcc7 | 5 | 5 |") && md.contains("+0.000%"), "{md}");
+        assert!(md.contains("| bcc7 | 5 | 5 | no |") && md.contains("+0.000%"), "{md}");
         let file = splice("# Benchmarks\n\nbody\n", &md);
         assert!(file.starts_with("# Benchmarks") && file.contains(SECTION_END));
         assert_eq!(existing_section(&file).map(str::trim), Some(md.trim()));
