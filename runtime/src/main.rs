@@ -132,7 +132,7 @@ enum Command {
         /// iso: isosurface; dvr: emission-absorption volume rendering with --tf.
         #[arg(long, value_parser = ["iso", "dvr"], default_value = "iso")]
         mode: String,
-        /// Transfer function for --mode dvr: a preset (mni-tissue, marschner-lobb) or a JSON file.
+        /// Transfer function for --mode dvr: a preset (mni-tissue, mni-opaque, marschner-lobb) or a JSON file.
         #[arg(long)]
         tf: Option<String>,
         /// --mode dvr: point-sample the transfer function (opacity-corrected) instead of pre-integrating.

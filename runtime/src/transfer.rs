@@ -45,6 +45,7 @@ pub const PREINT_SIZE: usize = 128;
 /// Built-in presets: (name, JSON text).
 pub const PRESETS: &[(&str, &str)] = &[
     ("mni-tissue", include_str!("../presets/mni-tissue.json")),
+    ("mni-opaque", include_str!("../presets/mni-opaque.json")),
     ("marschner-lobb", include_str!("../presets/marschner-lobb.json")),
 ];
 

@@ -52,7 +52,7 @@ fn perm_bench_measures_every_filter_and_n() {
     let gpu = boxforge_runtime::gpu::Gpu::new(None).unwrap_or_else(|e| panic!("{e}"));
     let r = perm::run(&gpu, None, 24, 1, &|_| {}).unwrap();
     assert!(r.refused.is_empty(), "{:?}", r.refused);
-    assert_eq!(r.rows.len(), perm::FILTERS.len() * (perm::QUANTS.len() + 1));
+    assert_eq!(r.rows.len(), perm::FILTERS.len() * (perm::QUANTS.len() + 2));
     for x in &r.rows {
         let off = (x.memory.total() as f64 / x.formula_bytes as f64 - 1.0).abs();
         assert!(off < 0.01, "{} N={}: {} bytes vs formula {}", x.filter, x.density, x.memory.total(), x.formula_bytes);
@@ -61,8 +61,17 @@ fn perm_bench_measures_every_filter_and_n() {
     for f in perm::FILTERS {
         let rms =
             |n: u32| r.rows.iter().find(|x| x.filter == f && x.density == n && x.gradient == n && !x.peel).unwrap().rms;
+        // Peeling leaves the image (so its RMS against direct) as it was and only drops candidates.
+        let peeled = r.rows.iter().find(|x| x.filter == f && x.peel).unwrap();
+        let unpeeled = r
+            .rows
+            .iter()
+            .rfind(|x| x.filter == f && !x.peel && x.tf == peeled.tf && (x.density, x.gradient) == perm::PEELED)
+            .unwrap();
+        assert_eq!(peeled.rms, unpeeled.rms, "{f}");
+        assert_eq!(peeled.candidates + peeled.peeled, unpeeled.candidates, "{f}");
         assert!(rms(10) < rms(3), "{f}: RMS at N=10 {:.2} vs N=3 {:.2}", rms(10), rms(3));
     }
     let md = perm::markdown(&r, "test");
-    assert!(md.contains("## PERM (Lim and Shin)") && md.contains("| bcc12 | 10 | 10 |"), "{md}");
+    assert!(md.contains("## PERM (Lim and Shin)") && md.contains("| bcc12 | marschner-lobb | 10 | 10 | no |"), "{md}");
 }

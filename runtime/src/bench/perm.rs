@@ -4,7 +4,7 @@
 //! interleaved), the cache's preprocessing time and memory (bytes per part,
 //! against the paper's equation 6 applied to the counts), and the RMS of its
 //! image against the direct one, for N = 3, 5, 10 and unequal (N, M) =
-//! (5, 3), and (5, 3) once more with opaque-boundary peeling. On the MNI head (resampled on each filter's lattice after a
+//! (5, 3), and (5, 3) with and without opaque-boundary peeling under an opaque transfer function. On the MNI head (resampled on each filter's lattice after a
 //! box-average downsampling by [`HEAD_DOWNSAMPLE`] per axis, so that every
 //! filter's cache at N = 10 stays under the 2 GiB cache limit: the BCC
 //! filters' at 2 mm would need 6.5 GB) with the `mni-tissue` preset, or
@@ -66,6 +66,8 @@ pub struct PermRow {
     pub filter: String,
     /// "mni_down4" or "ml".
     pub volume: String,
+    /// The transfer function's name.
+    pub tf: String,
     pub samples: usize,
     pub density: u32,
     pub gradient: u32,
@@ -124,18 +126,25 @@ pub fn run(
     for name in FILTERS {
         let d =
             Derivation::new(&boxforge::spec::resolve(name).map_err(|x| x.to_string())?).map_err(|x| x.to_string())?;
-        let (vol, tf, what, view) = match &small {
+        let (vol, tfs, what, view) = match &small {
             Some(h) => {
                 let v = crate::scene::from_cartesian(h, &d.filter.lattice, crate::scene::Conversion::Resample)
                     .map_err(|x| x.to_string())?;
-                (v, TransferFunction::preset("mni-tissue"), format!("mni_down{HEAD_DOWNSAMPLE}"), (200.0, 15.0))
+                (v, ["mni-tissue", "mni-opaque"], format!("mni_down{HEAD_DOWNSAMPLE}"), (200.0, 15.0))
             }
             None => {
                 let v = LatticeVolume::marschner_lobb(&d.filter.lattice, [24, 24, 24]).map_err(|x| x.to_string())?;
-                (v, TransferFunction::preset("marschner-lobb"), "ml".to_string(), (30.0, 25.0))
+                (v, ["marschner-lobb", "marschner-lobb"], "ml".to_string(), (30.0, 25.0))
             }
         };
-        measure_filter(gpu, &d, &vol, &tf, (&what, view, size), report.rounds, progress, &mut report)?;
+        // Every N on the first transfer function; peeling, with and without,
+        // on the second (opaque: what peeling is for).
+        let every: Vec<((u32, u32), bool)> = QUANTS.iter().map(|&q| (q, false)).collect();
+        let peeling = [(PEELED, false), (PEELED, true)];
+        for (tf, configs) in [(tfs[0], &every[..]), (tfs[1], &peeling[..])] {
+            let tf = TransferFunction::preset(tf);
+            measure_filter(gpu, &d, &vol, &tf, configs, (&what, view, size), report.rounds, progress, &mut report)?;
+        }
     }
     Ok(report)
 }
@@ -148,6 +157,7 @@ fn measure_filter(
     d: &Derivation,
     vol: &LatticeVolume,
     tf: &TransferFunction,
+    configs: &[((u32, u32), bool)],
     (what, view, size): (&str, (f32, f32), u32),
     rounds: usize,
     progress: &dyn Fn(&str),
@@ -168,8 +178,7 @@ fn measure_filter(
     let table = tf.table();
     let pi = table.preintegrate(STEP as f64);
     let reference = scene.render_tables(&table, Some(&pi), &DvrOptions { frames: 0, ..o.clone() }).map_err(e)?;
-    let configs = QUANTS.iter().map(|&q| (q, false)).chain([(PEELED, true)]);
-    for ((n, m), peel) in configs {
+    for &((n, m), peel) in configs {
         let quant = Quant { density: n, gradient: m };
         let peeling = if peel { ", peeled" } else { "" };
         progress(&format!(
@@ -205,6 +214,7 @@ fn measure_filter(
         report.rows.push(PermRow {
             filter: name.clone(),
             volume: what.to_string(),
+            tf: tf.name.clone(),
             samples: vol.samples(),
             density: n,
             gradient: m,
@@ -232,7 +242,8 @@ pub fn verdict(rows: &[PermRow]) -> String {
     }
     let label = |r: &PermRow| {
         let peel = if r.peel { " peeled" } else { "" };
-        format!("{} N={} M={}{peel} ({:.2}x)", r.filter, r.density, r.gradient, r.speedup.median)
+        let tf = if r.tf != rows[0].tf { format!(" with {}", r.tf) } else { String::new() };
+        format!("{} N={} M={}{peel}{tf} ({:.2}x)", r.filter, r.density, r.gradient, r.speedup.median)
     };
     let wins: Vec<String> = rows.iter().filter(|r| r.speedup.min > 1.0).map(label).collect();
     let losses: Vec<String> = rows.iter().filter(|r| r.speedup.max < 1.0).map(label).collect();
@@ -251,7 +262,7 @@ pub fn markdown(r: &PermReport, command: &str) -> String {
     let _ = writeln!(s, "{SECTION_START}\n## PERM (Lim and Shin)\n");
     let what = r.rows.first().map_or("", |x| x.volume.as_str());
     let data = if what.starts_with("mni") {
-        format!("the MNI head box-averaged by {HEAD_DOWNSAMPLE} per axis (4 mm) and resampled on each filter's lattice, mni-tissue preset")
+        format!("the MNI head box-averaged by {HEAD_DOWNSAMPLE} per axis (4 mm) and resampled on each filter's lattice, every N with the mni-tissue preset, and (N, M) = (5, 3) with and without peeling with mni-opaque (every tissue opaque, the surface-like rendering peeling is for)")
     } else {
         "Marschner-Lobb 24^3 with its preset".to_string()
     };
@@ -260,13 +271,14 @@ pub fn markdown(r: &PermReport, command: &str) -> String {
         "Written by `{command}` on {}. `render --mode dvr --cache perm --qc N --qc-grad M`: density and analytic gradient precomputed on the device at N^3 and M^3 positions of every cell the transfer function shows (dilated by one cell for pre-integration), looked up by the ray caster (nearest position). Data: {data}; {}^2 frames, step {STEP}, pre-integrated, TF skipping; direct and PERM frames interleaved in {} round(s) (speed-up: direct ÷ PERM time per round, median [min..max], a tie when the range spans 1). Memory: bytes allocated per part (index volume + summed-area table / densities / gradient magnitudes + signs), against the paper's equation 6 with b_iv = 2, b_db = 2, 3 gradient bytes and a sign byte, plus the 4-byte summed-area entry per row. Peeled: `--peel`, opaque-boundary peeling (runtime/src/perm.rs, `peel`), which drops the candidate cells no ray from outside reaches before it terminates at opacity 0.99; the image is the unpeeled cache's.\n",
         r.adapter, r.size, r.rounds
     );
-    let _ = writeln!(s, "| filter | N | M | peeled | samples | candidate cells | preprocessing | memory: index + SAT / densities / gradients + signs | memory vs formula | direct ms/frame | PERM ms/frame | speed-up | tie? | RMS vs direct |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    let _ = writeln!(s, "| filter | transfer function | N | M | peeled | samples | candidate cells | preprocessing | memory: index + SAT / densities / gradients + signs | memory vs formula | direct ms/frame | PERM ms/frame | speed-up | tie? | RMS vs direct |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for x in &r.rows {
         let m = &x.memory;
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {} | {} | {} of {} | {:.0} ms | {} + {} / {} / {} + {} = {} bytes | {:+.3}% | {:.1} | {:.1} | {:.2} [{:.2}..{:.2}] | {} | {:.2}/255 |",
+            "| {} | {} | {} | {} | {} | {} | {} of {} | {:.0} ms | {} + {} / {} / {} + {} = {} bytes | {:+.3}% | {:.1} | {:.1} | {:.2} [{:.2}..{:.2}] | {} | {:.2}/255 |",
             x.filter,
+            x.tf,
             x.density,
             x.gradient,
             if x.peel { format!("{} cells", x.peeled) } else { "no".into() },
@@ -324,6 +336,7 @@ mod tests {
         PermRow {
             filter: f.into(),
             volume: "ml".into(),
+            tf: "t".into(),
             samples: 1,
             density: n,
             gradient: n,
@@ -366,7 +379,7 @@ mod tests {
             refused: vec![],
         };
         let md = markdown(&r, "boxforge bench --perm");
-        assert!(md.contains("| bcc7 | 5 | 5 | no |") && md.contains("+0.000%"), "{md}");
+        assert!(md.contains("| bcc7 | t | 5 | 5 | no |") && md.contains("+0.000%"), "{md}");
         let file = splice("# Benchmarks\n\nbody\n", &md);
         assert!(file.starts_with("# Benchmarks") && file.contains(SECTION_END));
         assert_eq!(existing_section(&file).map(str::trim), Some(md.trim()));
