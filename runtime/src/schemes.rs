@@ -4,7 +4,7 @@
 //! Neither scheme is a box spline of the catalog (see
 //! runtime/references/mattausch_bilinear.wgsl, where they are written once
 //! by hand with their source cited), so the DVR ray caster runs them through
-//! [`DvrScene::with_source`]: the `bcc_linear` module supplies the clamped
+//! `DvrScene::with_source`: the `bcc_linear` module supplies the clamped
 //! texel load and the min/max kernel, the reference supplies the
 //! evaluation, and a small adapter here gives it the `<name>_eval_grad` the
 //! DVR template calls. As in the paper, the plane stack is chosen from the
