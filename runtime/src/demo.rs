@@ -3,17 +3,17 @@
 use boxforge::build::output::{generated_files, write_files, ALL_LAYOUTS, ALL_VARIANTS};
 use boxforge::derive::Derivation;
 use boxforge::emit::{Layout, Variant};
-use boxforge_runtime::dvr::DvrOptions;
 use boxforge_runtime::gpu::Gpu;
 use boxforge_runtime::pictures::html::{self, Block};
 use boxforge_runtime::pictures::plots::{self, log_slope, Series};
 use boxforge_runtime::pictures::text::Typeface;
 use boxforge_runtime::pictures::{self, Image, Tile};
-use boxforge_runtime::render::{self, valid_box, RenderOptions};
+use boxforge_runtime::render::dvr::transfer::TransferFunction;
+use boxforge_runtime::render::dvr::DvrOptions;
+use boxforge_runtime::render::iso::{self as render, valid_box, RenderOptions};
 use boxforge_runtime::scene::{self, matched_edge, Conversion};
-use boxforge_runtime::transfer::TransferFunction;
-use boxforge_runtime::upload::DeviceVolume;
 use boxforge_runtime::verify::{gpu_eval, Rng};
+use boxforge_runtime::volume::DeviceVolume;
 use boxforge_runtime::volume::{marschner_lobb, ml_position, LatticeVolume, Volume};
 use std::path::Path;
 use std::time::Instant;
@@ -132,7 +132,7 @@ pub fn run(out: &Path, size: u32, adapter: Option<&str>) -> Result<(), String> {
             frames: 1,
             ..Default::default()
         };
-        let dvr = boxforge_runtime::dvr::render(&gpu, &d, &head, Layout::Embedded, &mni_tf, &dvr_opts)
+        let dvr = boxforge_runtime::render::dvr::render(&gpu, &d, &head, Layout::Embedded, &mni_tf, &dvr_opts)
             .map_err(|e| e.to_string())?;
         let dvr_png = out.join(format!("mni_dvr_{name}.png"));
         render::write_png(&dvr_png, dvr.width, dvr.height, &dvr.rgba).map_err(|e| e.to_string())?;
@@ -318,13 +318,13 @@ fn literature_sheet(gpu: &Gpu, face: &Typeface, size: u32) -> Result<Image, Stri
     let view = render::view_direction(o.azimuth, o.elevation);
     let derive = |f: &boxforge::Filter| Derivation::new(f).map_err(|e| e.to_string());
     let catalog = |n: &str| boxforge::spec::catalog::get(n).map_err(|e| e.to_string());
-    let kuhn = boxforge_runtime::pt::tets::Grid::Cc.linear_filter();
+    let kuhn = boxforge_runtime::render::pt::tets::Grid::Cc.linear_filter();
     let sheared = catalog("bcc_sheared_trilinear")?.view_variant(view).map_err(|e| e.to_string())?.0;
     // (label, filter, projected tetrahedra?)
     let cases = [
         ("sheared trilinear, ray cast", sheared, false),
         ("barycentric (bcc_linear), ray cast", catalog("bcc_linear")?, false),
-        ("projected tetrahedra, BCC", boxforge_runtime::pt::tets::Grid::Bcc.linear_filter(), true),
+        ("projected tetrahedra, BCC", boxforge_runtime::render::pt::tets::Grid::Bcc.linear_filter(), true),
         ("projected tetrahedra, CC", kuhn, true),
         ("CC trilinear, ray cast", catalog("cc_trilinear")?, false),
     ];
@@ -334,18 +334,18 @@ fn literature_sheet(gpu: &Gpu, face: &Typeface, size: u32) -> Result<Image, Stri
         let e = matched_edge(&d.filter.lattice, ML_EDGE.powi(3));
         let ml = LatticeVolume::marschner_lobb(&d.filter.lattice, [e, e, e]).map_err(|e| e.to_string())?;
         let frame = if pt {
-            boxforge_runtime::pt::render::render(
+            boxforge_runtime::render::pt::render::render(
                 gpu,
                 &d,
                 &ml,
                 &tf,
                 &o,
-                boxforge_runtime::pt::render::Shading::Phong,
-                boxforge_runtime::pt::render::Normals::Vertex,
+                boxforge_runtime::render::pt::render::Shading::Phong,
+                boxforge_runtime::render::pt::render::Normals::Vertex,
             )
             .map(|(f, _)| f)
         } else {
-            boxforge_runtime::dvr::render(gpu, &d, &ml, Layout::Embedded, &tf, &o)
+            boxforge_runtime::render::dvr::render(gpu, &d, &ml, Layout::Embedded, &tf, &o)
         }
         .map_err(|e| e.to_string())?;
         tiles.push(Tile {

@@ -1,21 +1,27 @@
-//! boxforge runtime: a headless wgpu device, volumes in, GPU evaluation of
-//! the generated shaders checked against the exact evaluator, isosurface
-//! images out.
+//! boxforge runtime: the generated shaders driven on a wgpu device, in a
+//! host program's device or a headless one (lavapipe without a GPU).
+//!
+//! * [`gpu`]: the device context ([`gpu::Gpu`], opened here or handed in by
+//!   a host), shader compilation with errors caught, binding helpers, timing.
+//! * [`volume`]: volumes on the host (files, synthetic signals, lattice
+//!   conversion) and on the device ([`volume::DeviceVolume`]).
+//! * [`render`]: the renderers over one shared core (camera, block grid):
+//!   isosurfaces (fixed steps or exact hits), direct volume rendering, the
+//!   PERM cache, projected tetrahedra and the literature's hand-written schemes.
+//! * [`verify`], [`prefilter`]: point evaluation against the exact evaluator,
+//!   and the quasi-interpolation prefilter on the device.
+//! * [`bench`], [`pictures`], [`web`]: what the `boxforge` CLI measures,
+//!   draws and serves.
 
 pub mod bench;
-pub mod dvr;
 pub mod gpu;
-pub mod perm;
 pub mod pictures;
 pub mod prefilter;
 pub mod progress;
-pub mod pt;
+pub mod references;
 pub mod render;
 pub mod request;
 pub mod scene;
-pub mod schemes;
-pub mod transfer;
-pub mod upload;
 pub mod verify;
 pub mod volume;
 pub mod web;

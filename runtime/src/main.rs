@@ -8,7 +8,7 @@ use boxforge::emit::{Layout, Variant};
 use boxforge::spec;
 use boxforge_runtime::gpu::Gpu;
 use boxforge_runtime::progress;
-use boxforge_runtime::render::{self, RenderOptions};
+use boxforge_runtime::render::iso::{self as render, RenderOptions};
 use boxforge_runtime::request;
 use boxforge_runtime::scene::{self, Conversion};
 
@@ -396,7 +396,7 @@ fn run(cli: Cli) -> Result<(), Failure> {
                 let f = spec::catalog::get(name)?;
                 outln!("{:<16} {:<9} {}", f.name, f.lattice.name, f.description);
             }
-            for s in boxforge_runtime::schemes::ALL {
+            for s in boxforge_runtime::render::schemes::ALL {
                 outln!("{:<16} {:<9} {}", s.name(), "bcc", s.description());
             }
             Ok(())
@@ -433,17 +433,19 @@ fn run(cli: Cli) -> Result<(), Failure> {
             request::check_render_numbers(size, step, iso, az, el).map_err(Failure)?;
             request::check_output_file(&out, "--out").map_err(Failure)?;
             let dvr = request::check_render_mode(&mode, tf.as_deref(), no_preintegration).map_err(Failure)?;
-            let perm = boxforge_runtime::perm::check_request(&cache, &mode, qc, qc_grad).map_err(Failure)?;
+            let perm = boxforge_runtime::render::perm::check_request(&cache, &mode, qc, qc_grad).map_err(Failure)?;
             if peel && perm.is_none() {
                 return Err(Failure("--peel peels the PERM cache: add --cache perm (with --mode dvr)".into()));
             }
             let pt = request::check_renderer(&renderer, &mode, &cache, perspective).map_err(Failure)?;
             let tf = match &dvr {
-                Some(name) => Some(boxforge_runtime::transfer::TransferFunction::load(name).map_err(Failure)?),
+                Some(name) => {
+                    Some(boxforge_runtime::render::dvr::transfer::TransferFunction::load(name).map_err(Failure)?)
+                }
                 None => None,
             };
             // Mattausch et al.'s hand-written plane-stack schemes: ray-cast DVR on BCC only.
-            let scheme = boxforge_runtime::schemes::Scheme::parse(&filter);
+            let scheme = boxforge_runtime::render::schemes::Scheme::parse(&filter);
             if let Some(s) = scheme {
                 request::check_scheme(s.name(), &mode, &cache, pt, &layout).map_err(Failure)?;
             }
@@ -472,7 +474,7 @@ fn run(cli: Cli) -> Result<(), Failure> {
                     f.name, f.lattice.name, lat.name
                 )));
             }
-            if pt && boxforge_runtime::pt::tets::Grid::of(&lat).is_none() {
+            if pt && boxforge_runtime::render::pt::tets::Grid::of(&lat).is_none() {
                 return Err(Failure(format!(
                     "--renderer pt has tetrahedral meshes for BCC and CC data, not the {} lattice of {}: pick a BCC or CC filter, or drop --renderer pt",
                     lat.name, f.name
@@ -509,7 +511,7 @@ fn run(cli: Cli) -> Result<(), Failure> {
             let layout = Layout::parse(&layout).expect("clap checked");
             let frame = match &tf {
                 Some(tf) => {
-                    let o = boxforge_runtime::dvr::DvrOptions {
+                    let o = boxforge_runtime::render::dvr::DvrOptions {
                         width: size,
                         height: size,
                         azimuth: az,
@@ -524,22 +526,22 @@ fn run(cli: Cli) -> Result<(), Failure> {
                     };
                     match perm {
                         _ if scheme.is_some() => {
-                            boxforge_runtime::schemes::render(&gpu, &vol, scheme.unwrap(), tf, &o).map(|(f, choice)| {
+                            boxforge_runtime::render::schemes::render(&gpu, &vol, scheme.unwrap(), tf, &o).map(|(f, choice)| {
                                 eprintln!("{choice}");
                                 f
                             })
                         }
                         _ if pt => {
                             let shading = if shading == "gouraud" {
-                                boxforge_runtime::pt::render::Shading::Gouraud
+                                boxforge_runtime::render::pt::render::Shading::Gouraud
                             } else {
-                                boxforge_runtime::pt::render::Shading::Phong
+                                boxforge_runtime::render::pt::render::Shading::Phong
                             };
                             if d.facts.degree != 1 {
                                 eprintln!("note: projected tetrahedra interpolate linearly on the tetrahedra; --filter {} sets only the lattice and the clipped box", d.filter.name);
                             }
-                            let normals = boxforge_runtime::pt::render::Normals::Vertex;
-                            boxforge_runtime::pt::render::render(&gpu, &d, &vol, tf, &o, shading, normals).map(|(f, st)| {
+                            let normals = boxforge_runtime::render::pt::render::Normals::Vertex;
+                            boxforge_runtime::render::pt::render::render(&gpu, &d, &vol, tf, &o, shading, normals).map(|(f, st)| {
                                 eprintln!(
                                     "projected tetrahedra: {} of {} tetrahedra visible, ordered in {:.0} ms",
                                     st.drawn, st.total, st.order_ms
@@ -547,7 +549,7 @@ fn run(cli: Cli) -> Result<(), Failure> {
                                 f
                             })
                         }
-                        Some(q) => boxforge_runtime::perm::render(&gpu, &d, &vol, layout, tf, &o, q, peel).map(|(f, c)| {
+                        Some(q) => boxforge_runtime::render::perm::render(&gpu, &d, &vol, layout, tf, &o, q, peel).map(|(f, c)| {
                             if peel {
                                 eprintln!("opaque-boundary peeling: {} candidate cells no ray reaches dropped", c.peeled);
                             }
@@ -564,7 +566,7 @@ fn run(cli: Cli) -> Result<(), Failure> {
                             );
                             f
                         }),
-                        None => boxforge_runtime::dvr::render(&gpu, &d, &vol, layout, tf, &o),
+                        None => boxforge_runtime::render::dvr::render(&gpu, &d, &vol, layout, tf, &o),
                     }
                 }
                 None => render::render(&gpu, &d, &vol, layout, &opts),
@@ -647,10 +649,11 @@ fn run(cli: Cli) -> Result<(), Failure> {
                 let steps = progress::Steps::new();
                 // The head at 2 mm (projected tetrahedra of the 1 mm head take about a minute a frame on lavapipe).
                 let head = match (smoke, boxforge_runtime::scene::data_file("mni152_t1_1mm.nii.gz")) {
-                    (false, Some(p)) => Some(bench::perm::downsample(
-                        &boxforge_runtime::volume::Volume::load_nifti(&p).map_err(|e| Failure(e.to_string()))?,
-                        2,
-                    )),
+                    (false, Some(p)) => Some(
+                        boxforge_runtime::volume::Volume::load_nifti(&p)
+                            .map_err(|e| Failure(e.to_string()))?
+                            .downsample(2),
+                    ),
                     _ => None,
                 };
                 let report =

@@ -1,8 +1,9 @@
 //! Quasi-interpolation prefilter on the device with the emitted
 //! `<f>_prefilter_main` kernel, and the same convolution on the CPU.
 
+use crate::gpu::binding::{storage_entry, uniform_entry};
 use crate::gpu::{Gpu, GpuError};
-use crate::upload::{storage_entry, uniform_entry, DeviceVolume};
+use crate::volume::DeviceVolume;
 use crate::volume::LatticeVolume;
 use boxforge::derive::Derivation;
 use boxforge::emit::{emit, EmitOptions, Layout};

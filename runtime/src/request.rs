@@ -198,7 +198,7 @@ pub fn check_renderer(renderer: &str, mode: &str, cache: &str, perspective: bool
 
 /// A warning (not an error) when the transfer function is transparent over
 /// all of the data's values [lo, hi].
-pub fn tf_warning(table: &crate::transfer::Tf1d, lo: f32, hi: f32) -> Option<String> {
+pub fn tf_warning(table: &crate::render::dvr::transfer::Tf1d, lo: f32, hi: f32) -> Option<String> {
     table.transparent(lo as f64, hi as f64).then(|| {
         format!(
             "warning: the transfer function is transparent over the volume's values [{lo}, {hi}]: the image will be empty"
@@ -270,7 +270,7 @@ mod tests {
         assert!(check_render_mode("dvr", None, false).unwrap_err().contains("--tf"));
         assert!(check_render_mode("iso", Some("x.json"), false).unwrap_err().starts_with("--tf x.json"));
         assert!(check_render_mode("iso", None, true).unwrap_err().starts_with("--no-preintegration"));
-        let t = crate::transfer::TransferFunction::preset("mni-tissue").table();
+        let t = crate::render::dvr::transfer::TransferFunction::preset("mni-tissue").table();
         assert!(tf_warning(&t, 0.0, 20.0).is_some() && tf_warning(&t, 0.0, 255.0).is_none());
     }
 

@@ -1,8 +1,9 @@
 //! `boxforge verify`: the emitted `eval` / `eval_grad` on the device against
 //! the exact evaluator (f64) at random points of a random volume.
 
+use crate::gpu::binding::storage_entry;
 use crate::gpu::{Gpu, GpuError};
-use crate::upload::{storage_entry, DeviceVolume};
+use crate::volume::DeviceVolume;
 use crate::volume::LatticeVolume;
 use boxforge::derive::Derivation;
 use boxforge::emit::{emit, Bounds, EmitOptions, EvalForm, FetchMode, Layout, Variant};

@@ -36,7 +36,7 @@ fn check(name: &str, source: &str) -> Result<(), String> {
 /// Evaluates the included bcc7 module on the device at random points of a
 /// random volume and compares with the exact evaluator (f64).
 fn run_on_gpu() -> Result<(), String> {
-    use boxforge_runtime::{gpu::Gpu, upload::DeviceVolume, verify};
+    use boxforge_runtime::{gpu::Gpu, verify, volume::DeviceVolume};
     let d = boxforge::derive::Derivation::new(&boxforge::spec::catalog::get("bcc7").map_err(|e| e.to_string())?)
         .map_err(|e| e.to_string())?;
     let gpu = Gpu::new(None).map_err(|e| e.to_string())?;

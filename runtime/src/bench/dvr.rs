@@ -9,9 +9,9 @@
 
 use super::stats::{median, round_order, Ratio};
 use super::{BenchOptions, BenchRow};
-use crate::dvr::{rms, DvrOptions, DvrScene};
 use crate::gpu::Gpu;
-use crate::transfer::TransferFunction;
+use crate::render::dvr::transfer::TransferFunction;
+use crate::render::dvr::{rms, DvrOptions, DvrScene};
 use crate::volume::{LatticeVolume, Volume};
 use boxforge::derive::Derivation;
 use boxforge::emit::Layout;

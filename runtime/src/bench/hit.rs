@@ -6,7 +6,7 @@
 use super::stats::{median, round_order, Ratio};
 use super::BenchRow;
 use crate::gpu::Gpu;
-use crate::render::{self, HitMode, RenderOptions};
+use crate::render::iso::{self as render, HitMode, RenderOptions};
 use crate::volume::LatticeVolume;
 use boxforge::derive::Derivation;
 use boxforge::emit::Layout;

@@ -10,15 +10,15 @@
 //! references (`runtime/references/mattausch_bilinear.wgsl`, z stack);
 //! sheared trilinear is the catalog's `bcc_sheared_trilinear` (reference
 //! variant); barycentric on the Delaunay tetrahedra is `bcc_linear`. Then
-//! projected tetrahedra (`crate::pt`) on BCC and on CC data of the same
+//! projected tetrahedra (`crate::render::pt`) on BCC and on CC data of the same
 //! sample count: ms per frame.
 
 use super::{program, references::MATTAUSCH_BILINEAR, stats::median, timed_rounds, Job};
-use crate::dvr::DvrOptions;
 use crate::gpu::Gpu;
-use crate::pt::tets::Grid;
-use crate::transfer::TransferFunction;
-use crate::upload::DeviceVolume;
+use crate::render::dvr::transfer::TransferFunction;
+use crate::render::dvr::DvrOptions;
+use crate::render::pt::tets::Grid;
+use crate::volume::DeviceVolume;
 use crate::volume::{marschner_lobb, ml_position, LatticeVolume};
 use boxforge::derive::Derivation;
 use boxforge::emit::{emit, EmitOptions, Layout};
@@ -173,14 +173,14 @@ pub fn run(
         let ml_tf = TransferFunction::preset("marschner-lobb");
         let o = DvrOptions { width: pt_size, height: pt_size, frames: rounds.max(1), ..DvrOptions::default() };
         let pt_frame = |d: &Derivation, vol: &LatticeVolume, tf: &TransferFunction, o: &DvrOptions| {
-            crate::pt::render::render(
+            crate::render::pt::render::render(
                 gpu,
                 d,
                 vol,
                 tf,
                 o,
-                crate::pt::render::Shading::Phong,
-                crate::pt::render::Normals::Vertex,
+                crate::render::pt::render::Shading::Phong,
+                crate::render::pt::render::Normals::Vertex,
             )
             .map_err(e)
         };
@@ -206,7 +206,7 @@ pub fn run(
                 crate::scene::from_cartesian(head, &d.filter.lattice, crate::scene::Conversion::Resample)
                     .map_err(|x| x.to_string())
             };
-            let view = crate::render::view_direction(o.azimuth, o.elevation);
+            let view = crate::render::iso::view_direction(o.azimuth, o.elevation);
             for (label, filter, call, _, _) in schemes() {
                 progress(&format!("literature: {label} on the MNI head"));
                 let mut d = derive(filter)?;
@@ -220,16 +220,16 @@ pub fn run(
                         d = Derivation::new(&f).map_err(|x| x.to_string())?;
                         renderer.push_str(" (the view's variant)");
                     }
-                    (crate::dvr::render(gpu, &d, &vol, Layout::Embedded, &tf, &o).map_err(e)?, renderer)
+                    (crate::render::dvr::render(gpu, &d, &vol, Layout::Embedded, &tf, &o).map_err(e)?, renderer)
                 } else {
                     // The hand-written plane-stack schemes, stack chosen from the view.
                     let scheme = if call.starts_with("mattausch_bilinear_spatial") {
-                        crate::schemes::Scheme::BilinearSpatial
+                        crate::render::schemes::Scheme::BilinearSpatial
                     } else {
-                        crate::schemes::Scheme::Bilinear
+                        crate::render::schemes::Scheme::Bilinear
                     };
-                    let axis = crate::schemes::stack_for_view(view);
-                    let (frame, _) = crate::schemes::render(gpu, &vol, scheme, &tf, &o).map_err(e)?;
+                    let axis = crate::render::schemes::stack_for_view(view);
+                    let (frame, _) = crate::render::schemes::render(gpu, &vol, scheme, &tf, &o).map_err(e)?;
                     (frame, format!("{label}, ray cast ({} stack, from the view)", ["x", "y", "z"][axis]))
                 };
                 mni_rows.push(MniRow {
@@ -245,7 +245,7 @@ pub fn run(
                 let vol = volume_on(d)?;
                 let (frame, stats) = pt_frame(d, &vol, &tf, &o)?;
                 let grid = Grid::of(&d.filter.lattice).expect("BCC or CC");
-                let bytes = crate::pt::render::packed_data(&vol, grid).len() * 4 + stats.drawn * 4;
+                let bytes = crate::render::pt::render::packed_data(&vol, grid).len() * 4 + stats.drawn * 4;
                 mni_rows.push(MniRow {
                     renderer: "projected tetrahedra".into(),
                     lattice: d.filter.lattice.name.clone(),

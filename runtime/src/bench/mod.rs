@@ -9,14 +9,15 @@ pub mod dvr;
 pub mod hit;
 pub mod literature;
 pub mod perm;
-pub mod references;
+
 pub mod stats;
 
+use crate::gpu::binding::storage_entry;
 use crate::gpu::{Gpu, GpuError};
 use crate::prefilter::prefilter_cpu;
-use crate::render::{self, valid_box, RenderOptions};
-use crate::upload::{storage_entry, DeviceVolume};
+use crate::render::iso::{self as render, valid_box, RenderOptions};
 use crate::verify::{random_volume, Rng};
+use crate::volume::DeviceVolume;
 use crate::volume::{marschner_lobb, marschner_lobb_grad, ml_position, LatticeVolume, Volume};
 use boxforge::derive::Derivation;
 use boxforge::emit::{emit, Bounds, EmitOptions, EvalForm, FetchMode, Layout, Variant};
@@ -24,7 +25,7 @@ use boxforge::emit::{emit, Bounds, EmitOptions, EvalForm, FetchMode, Layout, Var
 const TAG_DENSE: &str = "dense form";
 const TAG_UNCHECKED: &str = "unchecked fetches";
 const TAG_LINEAR: &str = "linear fetches";
-use references::Reference;
+use crate::references::{self, Reference};
 use serde::Serialize;
 use stats::{median, round_order, Ratio};
 use std::collections::HashMap;
@@ -389,7 +390,7 @@ impl Job {
             ],
         });
         let groups = if sampled {
-            let sampler = crate::upload::linear_sampler(gpu, "ref_linear");
+            let sampler = crate::gpu::binding::linear_sampler(gpu, "ref_linear");
             let bg_s = dev.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: None,
                 layout: &bgl_sampler,

@@ -1,6 +1,6 @@
 //! `boxforge bench --perm` (issue #14, part 3): for bcc_linear, bcc7,
 //! bcc12 and cc_tricubic, DVR ms/frame with the PERM cache
-//! ([`crate::perm`]) against direct evaluation (per-round ratios, the two
+//! ([`crate::render::perm`]) against direct evaluation (per-round ratios, the two
 //! interleaved), the cache's preprocessing time and memory (bytes per part,
 //! against the paper's equation 6 applied to the counts), and the RMS of its
 //! image against the direct one, for N = 3, 5, 10 and unequal (N, M) =
@@ -12,10 +12,10 @@
 //! (smoke). Its own section of BENCHMARKS.md, which the full bench keeps.
 
 use super::stats::{median, round_order, Ratio};
-use crate::dvr::{rms, DvrOptions, DvrScene};
 use crate::gpu::Gpu;
-use crate::perm::{formula, Memory, PermCache, Quant};
-use crate::transfer::TransferFunction;
+use crate::render::dvr::transfer::TransferFunction;
+use crate::render::dvr::{rms, DvrOptions, DvrScene};
+use crate::render::perm::{formula, Memory, PermCache, Quant};
 use crate::volume::{LatticeVolume, Volume};
 use boxforge::derive::Derivation;
 use boxforge::emit::Layout;
@@ -35,30 +35,6 @@ pub const PEELED: (u32, u32) = (5, 3);
 pub const STEP: f32 = 0.5;
 /// Box-average factor per axis applied to the MNI head before resampling.
 pub const HEAD_DOWNSAMPLE: usize = 4;
-
-/// `v` box-averaged over `f`^3 blocks (a partial last block averages what it has).
-pub fn downsample(v: &Volume, f: usize) -> Volume {
-    let f = f.max(1);
-    let dims = v.dims.map(|n| n.div_ceil(f));
-    let mut data = Vec::with_capacity(dims.iter().product());
-    for z in 0..dims[2] {
-        for y in 0..dims[1] {
-            for x in 0..dims[0] {
-                let (mut sum, mut n) = (0.0f64, 0usize);
-                for k in z * f..((z + 1) * f).min(v.dims[2]) {
-                    for j in y * f..((y + 1) * f).min(v.dims[1]) {
-                        for i in x * f..((x + 1) * f).min(v.dims[0]) {
-                            sum += v.data[i + v.dims[0] * (j + v.dims[1] * k)] as f64;
-                            n += 1;
-                        }
-                    }
-                }
-                data.push((sum / n as f64) as f32);
-            }
-        }
-    }
-    Volume { dims, data }
-}
 
 /// One (filter, N, M): the cache against direct evaluation on one volume.
 #[derive(Clone, Debug, Serialize)]
@@ -121,7 +97,7 @@ pub fn run(
     rounds: usize,
     progress: &dyn Fn(&str),
 ) -> Result<PermReport, String> {
-    let small = head.map(|h| downsample(h, HEAD_DOWNSAMPLE));
+    let small = head.map(|h| h.downsample(HEAD_DOWNSAMPLE));
     let mut report = PermReport { adapter: gpu.describe(), size, rounds: rounds.max(1), rows: vec![], refused: vec![] };
     for name in FILTERS {
         let d =
@@ -327,7 +303,7 @@ mod tests {
     #[test]
     fn downsampling_averages_blocks() {
         let v = Volume::new([3, 2, 1], vec![1.0, 3.0, 10.0, 5.0, 7.0, 20.0]).unwrap();
-        let s = downsample(&v, 2);
+        let s = v.downsample(2);
         assert_eq!(s.dims, [2, 1, 1]);
         assert_eq!(s.data, vec![4.0, 15.0]);
     }

@@ -181,7 +181,7 @@ pub fn error_image(face: &Typeface, values: &[f64], width: u32, height: u32, max
 
 /// Writes an [`Image`] as PNG (atomically, like the renders).
 pub fn write_png(path: &std::path::Path, img: &Image) -> std::io::Result<()> {
-    crate::render::write_png(path, img.width, img.height, &img.rgba)
+    crate::render::iso::write_png(path, img.width, img.height, &img.rgba)
 }
 
 #[cfg(test)]

@@ -13,6 +13,7 @@
 use boxforge::spec::lattice::Lattice;
 
 mod convert;
+mod device;
 mod error;
 mod nifti;
 mod packing;
@@ -21,6 +22,7 @@ mod synthetic;
 #[cfg(test)]
 mod testutil;
 
+pub use device::DeviceVolume;
 pub use error::VolumeError;
 pub use raw::{parse_raw_spec, RawType};
 pub use synthetic::{marschner_lobb, marschner_lobb_grad, ml_position};

@@ -3,7 +3,7 @@
 //! shaders and a small volume file; no bundler, nothing downloaded).
 //!
 //! The site holds, per 3D filter and layout, the same shader sources the
-//! native renderer compiles ([`crate::render::raycast_shader`]: the emitted
+//! native renderer compiles ([`crate::render::iso::raycast_shader`]: the emitted
 //! module plus `templates/raycast.wgsl.j2`), every catalog module of every
 //! layout and variant (for the compile check in Chrome's WGSL compiler),
 //! `catalog.json` (what the page needs to sample, pack and ray cast: lattice
@@ -15,7 +15,7 @@ mod serve;
 
 pub use serve::{serve, Server};
 
-use crate::render::{raycast_shader, HitMode};
+use crate::render::iso::{raycast_shader, HitMode};
 use crate::volume::Volume;
 use boxforge::build::output::{generated_files, write_atomic, ALL_LAYOUTS, ALL_VARIANTS};
 use boxforge::derive::Derivation;
@@ -155,12 +155,12 @@ fn filter_entry(d: &Derivation, layouts: &[Layout]) -> Value {
 }
 
 /// A transfer-function preset as the page needs it, `tf/<name>.bin`: the
-/// sampled table ([`crate::transfer::TransferFunction::table`], (r, g, b,
+/// sampled table ([`crate::render::dvr::transfer::TransferFunction::table`], (r, g, b,
 /// extinction) per entry) then the pre-integration table for segments of
-/// `step` cells ([`crate::transfer::Tf1d::preintegrate`], row = front
+/// `step` cells ([`crate::render::dvr::transfer::Tf1d::preintegrate`], row = front
 /// value), all f32 little-endian; and its catalog entry.
 fn transfer_file(name: &str, step: f32) -> Result<(Value, Vec<u8>), String> {
-    let tf = crate::transfer::TransferFunction::load(name)?;
+    let tf = crate::render::dvr::transfer::TransferFunction::load(name)?;
     let table = tf.table();
     let pi = table.preintegrate(step as f64);
     let data: Vec<u8> = table.entries.iter().chain(&pi.entries).flatten().flat_map(|x| x.to_le_bytes()).collect();
@@ -213,7 +213,7 @@ pub fn write_site(
                 let path = format!("shaders/{}.{}.iso-{}.wgsl", f.name, layout.name(), hit.as_str());
                 files.push((path, source.into_bytes()));
             }
-            let source = crate::dvr::shader_source(&d, layout).map_err(|e| e.to_string())?;
+            let source = crate::render::dvr::shader_source(&d, layout).map_err(|e| e.to_string())?;
             files.push((format!("shaders/{}.{}.dvr.wgsl", f.name, layout.name()), source.into_bytes()));
         }
         entries.push(filter_entry(&d, &layouts));
@@ -232,9 +232,9 @@ pub fn write_site(
         }));
         files.push((path, volume_file(&v.volume)));
     }
-    let dvr = crate::dvr::DvrOptions::default();
+    let dvr = crate::render::dvr::DvrOptions::default();
     let mut tfs = Vec::new();
-    for (name, _) in crate::transfer::PRESETS {
+    for (name, _) in crate::render::dvr::transfer::PRESETS {
         let (entry, data) = transfer_file(name, dvr.step)?;
         files.push((entry["file"].as_str().expect("a path").to_string(), data));
         tfs.push(entry);
@@ -249,12 +249,12 @@ pub fn write_site(
             "step": dvr.step,
             "block": dvr.block,
             "termination": dvr.termination,
-            "light": crate::dvr::LIGHT,
-            "g0_of_range": crate::dvr::G0_OF_RANGE,
+            "light": crate::render::dvr::LIGHT,
+            "g0_of_range": crate::render::dvr::G0_OF_RANGE,
         },
         "defaults": {
-            "block": crate::render::RenderOptions::default().block,
-            "step": crate::render::RenderOptions::default().step,
+            "block": crate::render::iso::RenderOptions::default().block,
+            "step": crate::render::iso::RenderOptions::default().step,
         },
     });
     let text = serde_json::to_string_pretty(&catalog).map_err(|e| e.to_string())? + "\n";
@@ -279,7 +279,7 @@ pub fn mni_volume(downsample: usize) -> Result<SiteVolume, String> {
     let path = crate::scene::data_file("mni152_t1_1mm.nii.gz")
         .ok_or("the MNI head data/mni152_t1_1mm.nii.gz is missing: run from the repository root, or pass --no-mni")?;
     let v = Volume::load_nifti(&path).map_err(|e| e.to_string())?;
-    let v = crate::bench::perm::downsample(&v, downsample);
+    let v = v.downsample(downsample);
     Ok(SiteVolume {
         name: "mni".into(),
         description: format!(
@@ -337,7 +337,7 @@ mod tests {
             let name = t["name"].as_str().unwrap();
             let bytes = std::fs::read(dir.join(t["file"].as_str().unwrap())).unwrap();
             let floats: Vec<f32> = bytes.chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().unwrap())).collect();
-            let table = crate::transfer::TransferFunction::load(name).unwrap().table();
+            let table = crate::render::dvr::transfer::TransferFunction::load(name).unwrap().table();
             let (n, m) = (t["table_size"].as_u64().unwrap() as usize, t["preint_size"].as_u64().unwrap() as usize);
             assert_eq!((n, floats.len()), (table.entries.len(), 4 * (n + m * m)), "{name}");
             assert_eq!(floats[4 * (n - 1)..4 * n], table.entries[n - 1], "{name}: last 1D entry");

@@ -1,0 +1,256 @@
+//! Headless wgpu device on Vulkan (lavapipe when there is no GPU), shader
+//! compilation with errors caught, and small buffer helpers.
+
+use wgpu::util::DeviceExt;
+
+pub mod binding;
+
+#[derive(Debug, thiserror::Error)]
+pub enum GpuError {
+    #[error("no Vulkan adapter found: install a Vulkan driver (on Debian, as root: apt-get install -y mesa-vulkan-drivers, which provides the lavapipe software device)")]
+    NoAdapter,
+    #[error("no Vulkan adapter matches '{wanted}'; available: {available} (set WGPU_ADAPTER_NAME or --adapter to one of them)")]
+    NoMatchingAdapter { wanted: String, available: String },
+    #[error("the adapter refused a device: {0}")]
+    Device(String),
+    #[error("shader {label} failed to compile:\n{message}")]
+    Shader { label: String, message: String },
+    #[error("GPU error: {0}")]
+    Runtime(String),
+}
+
+pub struct Gpu {
+    pub adapter: wgpu::Adapter,
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    pub info: wgpu::AdapterInfo,
+    pub timestamps: bool,
+    /// The first device error no error scope caught (wgpu would panic on it
+    /// otherwise); [`Gpu::wait`] and [`Gpu::read_buffer`] report it.
+    uncaptured: std::sync::Arc<std::sync::Mutex<Option<String>>>,
+}
+
+impl Gpu {
+    /// Opens a device. `adapter_name` (or env WGPU_ADAPTER_NAME) selects an
+    /// adapter by case-insensitive substring; otherwise the first discrete,
+    /// integrated, virtual, then CPU adapter.
+    pub fn new(adapter_name: Option<&str>) -> Result<Gpu, GpuError> {
+        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
+            backends: wgpu::Backends::VULKAN,
+            ..wgpu::InstanceDescriptor::new_without_display_handle()
+        });
+        let adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::VULKAN));
+        if adapters.is_empty() {
+            return Err(GpuError::NoAdapter);
+        }
+        let env_name = std::env::var("WGPU_ADAPTER_NAME").ok();
+        let wanted = adapter_name.map(str::to_string).or(env_name);
+        let adapter = match wanted {
+            Some(w) => {
+                let names: Vec<String> = adapters.iter().map(|a| a.get_info().name).collect();
+                let lw = w.to_lowercase();
+                adapters
+                    .into_iter()
+                    .find(|a| a.get_info().name.to_lowercase().contains(&lw))
+                    .ok_or(GpuError::NoMatchingAdapter { wanted: w, available: names.join(", ") })?
+            }
+            None => {
+                let rank = |a: &wgpu::Adapter| match a.get_info().device_type {
+                    wgpu::DeviceType::DiscreteGpu => 0,
+                    wgpu::DeviceType::IntegratedGpu => 1,
+                    wgpu::DeviceType::VirtualGpu => 2,
+                    wgpu::DeviceType::Cpu => 3,
+                    wgpu::DeviceType::Other => 4,
+                };
+                adapters.into_iter().min_by_key(rank).expect("non-empty")
+            }
+        };
+        let info = adapter.get_info();
+        let timestamps = adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY);
+        let mut features = wgpu::Features::empty();
+        if timestamps {
+            features |= wgpu::Features::TIMESTAMP_QUERY;
+        }
+        // Hardware-filtered R32Float fetches (bench's Sigg & Hadwiger
+        // reference); requested only when the adapter has it.
+        if adapter.features().contains(wgpu::Features::FLOAT32_FILTERABLE) {
+            features |= wgpu::Features::FLOAT32_FILTERABLE;
+        }
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("boxforge"),
+            required_features: features,
+            required_limits: adapter.limits(),
+            ..Default::default()
+        }))
+        .map_err(|e| GpuError::Device(e.to_string()))?;
+        let uncaptured = std::sync::Arc::new(std::sync::Mutex::new(None));
+        let sink = uncaptured.clone();
+        device.on_uncaptured_error(std::sync::Arc::new(move |e: wgpu::Error| {
+            let mut slot = sink.lock().unwrap_or_else(|p| p.into_inner());
+            if slot.is_none() {
+                // One line: wgpu's messages carry a multi-line source chain.
+                *slot =
+                    Some(e.to_string().lines().map(str::trim).filter(|l| !l.is_empty()).collect::<Vec<_>>().join(": "));
+            }
+        }));
+        Ok(Gpu { adapter, device, queue, info, timestamps, uncaptured })
+    }
+
+    /// One line naming the adapter.
+    pub fn describe(&self) -> String {
+        format!(
+            "{} ({:?}, {:?}, driver {})",
+            self.info.name, self.info.device_type, self.info.backend, self.info.driver
+        )
+    }
+
+    /// Compiles WGSL; validation errors (with naga's spans) become an error.
+    pub fn compile(&self, label: &str, source: &str) -> Result<wgpu::ShaderModule, GpuError> {
+        // naga first: its message carries the source spans.
+        if let Err(e) = naga_check(source, label) {
+            return Err(GpuError::Shader { label: label.into(), message: e });
+        }
+        let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let module = self.device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some(label),
+            source: wgpu::ShaderSource::Wgsl(source.into()),
+        });
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(GpuError::Shader { label: label.into(), message: e.to_string() });
+        }
+        Ok(module)
+    }
+
+    /// Runs `f` inside a validation error scope and reports what it caught.
+    pub fn checked<T>(&self, what: &str, f: impl FnOnce() -> T) -> Result<T, GpuError> {
+        let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let t = f();
+        match pollster::block_on(scope.pop()) {
+            Some(e) => Err(GpuError::Runtime(format!("{what}: {}", one_line(&e.to_string())))),
+            None => Ok(t),
+        }
+    }
+
+    /// A compute pipeline with explicit bind group layouts (one per group).
+    pub fn pipeline(
+        &self,
+        label: &str,
+        shader: &wgpu::ShaderModule,
+        groups: &[&wgpu::BindGroupLayout],
+        entry: &str,
+    ) -> Result<wgpu::ComputePipeline, GpuError> {
+        let layouts: Vec<Option<&wgpu::BindGroupLayout>> = groups.iter().map(|g| Some(*g)).collect();
+        let layout = self.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some(label),
+            bind_group_layouts: &layouts,
+            immediate_size: 0,
+        });
+        self.checked(&format!("{label} pipeline"), || {
+            self.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(label),
+                layout: Some(&layout),
+                module: shader,
+                entry_point: Some(entry),
+                compilation_options: Default::default(),
+                cache: None,
+            })
+        })
+    }
+
+    /// Records one dispatch of `pipeline` with bind groups 0.. and submits it.
+    pub fn dispatch(
+        &self,
+        label: &str,
+        pipeline: &wgpu::ComputePipeline,
+        bind_groups: &[&wgpu::BindGroup],
+        groups: (u32, u32, u32),
+    ) -> Result<(), GpuError> {
+        self.checked(&format!("{label} dispatch"), || {
+            let mut enc = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
+            {
+                let mut pass =
+                    enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(label), timestamp_writes: None });
+                pass.set_pipeline(pipeline);
+                for (i, bg) in bind_groups.iter().enumerate() {
+                    pass.set_bind_group(i as u32, *bg, &[]);
+                }
+                pass.dispatch_workgroups(groups.0, groups.1, groups.2);
+            }
+            self.queue.submit([enc.finish()]);
+        })
+    }
+
+    pub fn storage_buffer(&self, label: &str, bytes: &[u8], writable: bool) -> wgpu::Buffer {
+        let mut usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
+        if writable {
+            usage |= wgpu::BufferUsages::COPY_SRC;
+        }
+        self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents: bytes, usage })
+    }
+
+    pub fn uniform_buffer(&self, label: &str, bytes: &[u8]) -> wgpu::Buffer {
+        self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some(label),
+            contents: bytes,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        })
+    }
+
+    /// Copies a buffer back to the host.
+    pub fn read_buffer(&self, src: &wgpu::Buffer) -> Result<Vec<u8>, GpuError> {
+        let size = src.size();
+        let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback"),
+            size,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut enc = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("readback") });
+        enc.copy_buffer_to_buffer(src, 0, &staging, 0, size);
+        self.queue.submit([enc.finish()]);
+        let slice = staging.slice(..);
+        let (tx, rx) = std::sync::mpsc::channel();
+        slice.map_async(wgpu::MapMode::Read, move |r| {
+            let _ = tx.send(r);
+        });
+        self.device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| GpuError::Runtime(e.to_string()))?;
+        rx.recv().map_err(|e| GpuError::Runtime(e.to_string()))?.map_err(|e| GpuError::Runtime(e.to_string()))?;
+        let data = slice.get_mapped_range().map_err(|e| GpuError::Runtime(e.to_string()))?.to_vec();
+        staging.unmap();
+        self.take_uncaptured()?;
+        Ok(data)
+    }
+
+    /// Waits for all submitted work; reports a device error that no scope caught.
+    pub fn wait(&self) -> Result<(), GpuError> {
+        self.device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| GpuError::Runtime(e.to_string()))?;
+        self.take_uncaptured()
+    }
+
+    /// The device's limits (what requests are checked against before any upload).
+    pub fn limits(&self) -> wgpu::Limits {
+        self.device.limits()
+    }
+
+    /// Err with the first uncaught device error, if one happened.
+    pub fn take_uncaptured(&self) -> Result<(), GpuError> {
+        match self.uncaptured.lock().unwrap_or_else(|p| p.into_inner()).take() {
+            Some(e) => Err(GpuError::Runtime(e)),
+            None => Ok(()),
+        }
+    }
+}
+
+/// wgpu's multi-line error chains as one line.
+fn one_line(s: &str) -> String {
+    s.lines().map(str::trim).filter(|l| !l.is_empty()).collect::<Vec<_>>().join(": ")
+}
+
+/// Parses and validates WGSL with naga; Err holds the rendered message.
+pub fn naga_check(source: &str, label: &str) -> Result<(), String> {
+    let r = boxforge::validate::validate_wgsl(source, label);
+    match r.error {
+        Some(e) => Err(e),
+        None => Ok(()),
+    }
+}

@@ -1,0 +1,77 @@
+//! CI runs a small smoke version of the benchmark: it must run end to end and
+//! produce every section (no timed assertions).
+
+#[test]
+fn bench_smoke_runs_and_reports_every_section() {
+    let gpu = crate::common::gpu();
+    let o = boxforge_runtime::bench::BenchOptions::smoke();
+    let r = boxforge_runtime::bench::run(&gpu, &o, &|_| {}).unwrap();
+    for kind in ["eval", "eval_grad", "central_differences"] {
+        assert!(r.rows.iter().any(|x| x.kind == kind && x.evals_per_s.unwrap_or(0.0) > 0.0), "{kind}");
+    }
+    assert!(r.rows.iter().any(|x| x.variant == "naive" && x.ratio_to_baseline.is_some()));
+    assert!(r.rows.iter().any(|x| x.layout == "packed" && x.baseline.as_deref() == Some("packed ÷ embedded")));
+    assert!(r.rows.iter().any(|x| x.ms_per_frame.is_some()));
+    assert!(!r.quality.is_empty() && !r.convergence.is_empty() && !r.gradient.is_empty());
+    // bcc_linear reproduces linear functions: its measured order is near 2.
+    let c = &r.convergence[0];
+    assert!(c.measured_order > 1.5, "{c:?}");
+    let md = boxforge_runtime::bench::markdown(&r, "test");
+    assert!(md.contains("## Evaluation throughput") && md.contains("## Convergence"));
+}
+
+/// `bench --literature` end to end at a small size: every scheme measured,
+/// projected tetrahedra on both lattices, a verdict for every claim.
+#[test]
+fn literature_bench_measures_every_scheme_and_judges_every_claim() {
+    use boxforge_runtime::bench::literature;
+    let gpu = crate::common::gpu();
+    let r = literature::run(&gpu, 2048, 1, 24, None, &|_| {}).unwrap();
+    assert_eq!(r.schemes.len(), 9);
+    for s in &r.schemes {
+        // Every scheme reconstructs Marschner-Lobb at 41^3 to a few percent (the function spans [0, 1]).
+        assert!(s.rms_error.is_finite() && s.rms_error < 0.1, "{s:?}");
+        assert!(s.evals_per_s > 0.0, "{s:?}");
+    }
+    assert_eq!(r.pt.iter().map(|p| p.lattice.as_str()).collect::<Vec<_>>(), ["bcc", "cc"]);
+    assert!(r.mni.is_empty(), "no head given, no head rows");
+    assert!(r.pt.iter().all(|p| p.tetrahedra_drawn > 0 && p.ms_per_frame > 0.0));
+    let v = literature::verdicts(&r);
+    assert_eq!(v.len(), 5);
+    assert!(v.iter().all(|x| x.confirmed.is_some()));
+    let md = literature::markdown(&r, "test");
+    assert!(md.contains("## Renderers of the literature") && md.contains("confirmed?"));
+}
+
+/// `bench --perm` end to end on Marschner-Lobb: every filter at every N
+/// built and timed against direct evaluation, the memory it reports within
+/// 1% of the paper's formula, and finer quantization closer to direct.
+#[test]
+fn perm_bench_measures_every_filter_and_n() {
+    use boxforge_runtime::bench::perm;
+    let gpu = crate::common::gpu();
+    let r = perm::run(&gpu, None, 24, 1, &|_| {}).unwrap();
+    assert!(r.refused.is_empty(), "{:?}", r.refused);
+    assert_eq!(r.rows.len(), perm::FILTERS.len() * (perm::QUANTS.len() + 2));
+    for x in &r.rows {
+        let off = (x.memory.total() as f64 / x.formula_bytes as f64 - 1.0).abs();
+        assert!(off < 0.01, "{} N={}: {} bytes vs formula {}", x.filter, x.density, x.memory.total(), x.formula_bytes);
+        assert!(x.direct_ms > 0.0 && x.perm_ms > 0.0 && x.speedup.rounds == 1, "{x:?}");
+    }
+    for f in perm::FILTERS {
+        let rms =
+            |n: u32| r.rows.iter().find(|x| x.filter == f && x.density == n && x.gradient == n && !x.peel).unwrap().rms;
+        // Peeling leaves the image (so its RMS against direct) as it was and only drops candidates.
+        let peeled = r.rows.iter().find(|x| x.filter == f && x.peel).unwrap();
+        let unpeeled = r
+            .rows
+            .iter()
+            .rfind(|x| x.filter == f && !x.peel && x.tf == peeled.tf && (x.density, x.gradient) == perm::PEELED)
+            .unwrap();
+        assert_eq!(peeled.rms, unpeeled.rms, "{f}");
+        assert_eq!(peeled.candidates + peeled.peeled, unpeeled.candidates, "{f}");
+        assert!(rms(10) < rms(3), "{f}: RMS at N=10 {:.2} vs N=3 {:.2}", rms(10), rms(3));
+    }
+    let md = perm::markdown(&r, "test");
+    assert!(md.contains("## PERM (Lim and Shin)") && md.contains("| bcc12 | marschner-lobb | 10 | 10 | no |"), "{md}");
+}

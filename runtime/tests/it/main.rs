@@ -1,0 +1,18 @@
+//! The runtime's integration tests in one binary (one link of wgpu and naga
+//! instead of one per file), sharing one device ([`common::gpu`]).
+
+mod atomic_output;
+mod bad_input;
+mod bench_refs;
+mod bench_smoke;
+mod cli;
+mod common;
+mod dvr;
+mod gpu_verify;
+mod hit;
+mod mattausch_references;
+mod perm;
+mod prefilter;
+mod pt;
+mod render;
+mod web;

@@ -1,0 +1,11 @@
+//! Cross-crate integration tests in one binary.
+
+mod fuzz_corpus;
+mod literature;
+mod mattausch;
+mod oracle_agreement;
+mod partition_and_reproduction;
+mod random_directions;
+mod random_specs;
+mod shaders_out_fresh;
+mod wgsl;
