@@ -15,6 +15,7 @@
 
 pub mod bench;
 pub mod gpu;
+#[cfg(feature = "pictures")]
 pub mod pictures;
 pub mod prefilter;
 pub mod progress;
@@ -24,4 +25,5 @@ pub mod request;
 pub mod scene;
 pub mod verify;
 pub mod volume;
+#[cfg(feature = "web")]
 pub mod web;

@@ -1,15 +1,18 @@
-//! Headless wgpu device on Vulkan (lavapipe when there is no GPU), shader
-//! compilation with errors caught, and small buffer helpers.
+//! The device context: a wgpu device opened here (headless, any backend the
+//! build enables: lavapipe when there is no GPU) or handed in by a host
+//! program ([`Gpu::from_device`]), shader compilation with errors caught,
+//! and small buffer helpers.
 
 use wgpu::util::DeviceExt;
 
 pub mod binding;
+pub mod timing;
 
 #[derive(Debug, thiserror::Error)]
 pub enum GpuError {
     #[error("no Vulkan adapter found: install a Vulkan driver (on Debian, as root: apt-get install -y mesa-vulkan-drivers, which provides the lavapipe software device)")]
     NoAdapter,
-    #[error("no Vulkan adapter matches '{wanted}'; available: {available} (set WGPU_ADAPTER_NAME or --adapter to one of them)")]
+    #[error("no adapter matches '{wanted}'; available: {available} (set WGPU_ADAPTER_NAME to one of them)")]
     NoMatchingAdapter { wanted: String, available: String },
     #[error("the adapter refused a device: {0}")]
     Device(String),
@@ -19,8 +22,11 @@ pub enum GpuError {
     Runtime(String),
 }
 
+/// A device and its queue with what the runtime needs to know of them.
+/// Cloning is cheap (wgpu's handles are reference counted): renderers keep
+/// a clone to write their uniforms per frame.
+#[derive(Clone)]
 pub struct Gpu {
-    pub adapter: wgpu::Adapter,
     pub device: wgpu::Device,
     pub queue: wgpu::Queue,
     pub info: wgpu::AdapterInfo,
@@ -34,12 +40,30 @@ impl Gpu {
     /// Opens a device. `adapter_name` (or env WGPU_ADAPTER_NAME) selects an
     /// adapter by case-insensitive substring; otherwise the first discrete,
     /// integrated, virtual, then CPU adapter.
+    /// The backends are those the build enables (the `boxforge` binary turns
+    /// on Vulkan and GL; the library asks for none of its own): Vulkan first,
+    /// the others when it has no adapter, or those `WGPU_BACKEND` names.
     pub fn new(adapter_name: Option<&str>) -> Result<Gpu, GpuError> {
-        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
-            backends: wgpu::Backends::VULKAN,
-            ..wgpu::InstanceDescriptor::new_without_display_handle()
-        });
-        let adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::VULKAN));
+        // WGPU_BACKEND (e.g. "gl") picks backends; otherwise Vulkan, and the
+        // other enabled backends only when Vulkan has no adapter.
+        let enumerate = |backends: wgpu::Backends| {
+            let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
+                backends,
+                ..wgpu::InstanceDescriptor::new_without_display_handle()
+            });
+            pollster::block_on(instance.enumerate_adapters(backends))
+        };
+        let adapters = match wgpu::Backends::from_env() {
+            Some(backends) => enumerate(backends),
+            None => {
+                let vulkan = enumerate(wgpu::Backends::VULKAN);
+                if vulkan.is_empty() {
+                    enumerate(wgpu::Backends::all() - wgpu::Backends::VULKAN)
+                } else {
+                    vulkan
+                }
+            }
+        };
         if adapters.is_empty() {
             return Err(GpuError::NoAdapter);
         }
@@ -83,9 +107,46 @@ impl Gpu {
             ..Default::default()
         }))
         .map_err(|e| GpuError::Device(e.to_string()))?;
+        let gpu = Gpu::with_info(device, queue, info);
+        gpu.catch_uncaptured_errors();
+        Ok(gpu)
+    }
+
+    /// Wraps a host program's device and queue: nothing is requested of the
+    /// adapter, the device's own features and limits decide which paths
+    /// run (timestamps only with `TIMESTAMP_QUERY`; hardware-filtered
+    /// fetches only with `FLOAT32_FILTERABLE`, else a typed error), and the
+    /// host's uncaptured-error handler stays in place: errors are reported
+    /// through error scopes around the runtime's own calls.
+    pub fn from_device(device: wgpu::Device, queue: wgpu::Queue) -> Gpu {
+        let info = wgpu::AdapterInfo {
+            name: "host device".into(),
+            vendor: 0,
+            device: 0,
+            device_type: wgpu::DeviceType::Other,
+            device_pci_bus_id: String::new(),
+            driver: String::new(),
+            driver_info: String::new(),
+            backend: wgpu::Backend::Noop,
+            subgroup_min_size: 0,
+            subgroup_max_size: 0,
+            transient_saves_memory: None,
+            limit_bucket: None,
+        };
+        Gpu::with_info(device, queue, info)
+    }
+
+    fn with_info(device: wgpu::Device, queue: wgpu::Queue, info: wgpu::AdapterInfo) -> Gpu {
+        let timestamps = device.features().contains(wgpu::Features::TIMESTAMP_QUERY);
         let uncaptured = std::sync::Arc::new(std::sync::Mutex::new(None));
-        let sink = uncaptured.clone();
-        device.on_uncaptured_error(std::sync::Arc::new(move |e: wgpu::Error| {
+        Gpu { device, queue, info, timestamps, uncaptured }
+    }
+
+    /// Records the first device error no error scope caught instead of
+    /// wgpu's default panic (a device the runtime opened itself only).
+    fn catch_uncaptured_errors(&self) {
+        let sink = self.uncaptured.clone();
+        self.device.on_uncaptured_error(std::sync::Arc::new(move |e: wgpu::Error| {
             let mut slot = sink.lock().unwrap_or_else(|p| p.into_inner());
             if slot.is_none() {
                 // One line: wgpu's messages carry a multi-line source chain.
@@ -93,7 +154,6 @@ impl Gpu {
                     Some(e.to_string().lines().map(str::trim).filter(|l| !l.is_empty()).collect::<Vec<_>>().join(": "));
             }
         }));
-        Ok(Gpu { adapter, device, queue, info, timestamps, uncaptured })
     }
 
     /// One line naming the adapter.

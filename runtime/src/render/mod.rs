@@ -4,8 +4,16 @@
 //! top of DVR), [`pt`] (projected tetrahedra) and [`schemes`] (the
 //! literature's hand-written BCC schemes, ray cast through DVR).
 
+pub mod blocks;
+pub mod camera;
 pub mod dvr;
+mod error;
 pub mod iso;
 pub mod perm;
+pub mod present;
 pub mod pt;
 pub mod schemes;
+
+pub use camera::{Camera, Target};
+pub use error::RenderError;
+pub use iso::renderer::{IsoOptions, IsoRenderer};

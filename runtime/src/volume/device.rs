@@ -18,6 +18,8 @@ pub struct DeviceVolume {
     buffers: Vec<wgpu::Buffer>,
     /// Bytes on the device for the samples.
     pub bytes: usize,
+    /// Lattice samples per axis of the volume (what the ray casters bound their rays by).
+    pub dims: [usize; 3],
 }
 
 impl DeviceVolume {
@@ -36,6 +38,7 @@ impl DeviceVolume {
                     sampler: None,
                     buffers: vec![],
                     bytes: v.data.len() * 4,
+                    dims: v.dims,
                 })
             }
             Layout::Packed => {
@@ -50,6 +53,7 @@ impl DeviceVolume {
                     sampler: None,
                     buffers: vec![samples, grid],
                     bytes: words.len() * 4,
+                    dims: v.dims,
                 })
             }
         }

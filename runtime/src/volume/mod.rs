@@ -15,7 +15,10 @@ use boxforge::spec::lattice::Lattice;
 mod convert;
 mod device;
 mod error;
+#[cfg(feature = "nifti")]
 mod nifti;
+#[cfg(not(feature = "nifti"))]
+mod nifti_off;
 mod packing;
 mod raw;
 mod synthetic;

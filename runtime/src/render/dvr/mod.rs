@@ -34,6 +34,7 @@ pub mod transfer;
 
 use crate::gpu::binding::{storage_entry, uniform_entry};
 use crate::gpu::{Gpu, GpuError};
+use crate::render::blocks::block_bounds;
 use crate::render::dvr::transfer::{Preint, Tf1d, TransferFunction};
 use crate::render::iso::{ray_params, Frame, RenderOptions};
 use crate::volume::DeviceVolume;
@@ -188,54 +189,6 @@ pub(crate) fn filter_module(d: &Derivation, layout: Layout) -> Result<String, Gp
     let module = emit(d, &EmitOptions { layout, command: "boxforge render --mode dvr".into(), ..Default::default() })
         .map_err(|e| GpuError::Runtime(e.to_string()))?;
     Ok(module.source)
-}
-
-/// [min, max] of the spline over each block of `block`^3 unit cubes of the
-/// volume (x fastest) with the emitted `<f>_minmax_main` of `shader`,
-/// dispatched in z-slabs of blocks so that no dispatch exceeds 65535
-/// workgroups (block 1, one bound per cell, on a large volume).
-pub(crate) fn block_bounds(
-    gpu: &Gpu,
-    shader: &wgpu::ShaderModule,
-    name: &str,
-    dv: &DeviceVolume,
-    dims: [usize; 3],
-    block: i32,
-) -> Result<Vec<[f32; 2]>, GpuError> {
-    let dev = &gpu.device;
-    let blocks = dims.map(|n| (n as i32 + block - 1) / block);
-    let slab = (blocks[0] * blocks[1]) as usize;
-    let nblocks = slab * blocks[2] as usize;
-    let out_binding = if dv.layout == Layout::Packed { 2 } else { 1 };
-    let mut entries0 = dv.layout_entries(0, wgpu::ShaderStages::COMPUTE);
-    entries0.push(storage_entry(out_binding, false));
-    entries0.push(uniform_entry(out_binding + 1));
-    let bgl_mm =
-        dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("minmax"), entries: &entries0 });
-    let minmax = gpu.pipeline("minmax", shader, &[&bgl_mm], &format!("{name}_minmax_main"))?;
-    let slabs_per_dispatch = ((65535 * 64) / slab.max(1)).max(1) as i32;
-    let mut bounds = Vec::with_capacity(nblocks);
-    let mut z0 = 0;
-    while z0 < blocks[2] {
-        let nz = slabs_per_dispatch.min(blocks[2] - z0);
-        let count = slab * nz as usize;
-        let blocks_buf = gpu.storage_buffer("blocks", &vec![0u8; count * 8], true);
-        let job: [i32; 8] = [0, 0, z0 * block, 0, blocks[0], blocks[1], nz, block];
-        let job_buf = gpu.uniform_buffer("job", bytemuck::cast_slice(&job));
-        let mut bind0 = dv.bind_entries(0);
-        bind0.push(wgpu::BindGroupEntry { binding: out_binding, resource: blocks_buf.as_entire_binding() });
-        bind0.push(wgpu::BindGroupEntry { binding: out_binding + 1, resource: job_buf.as_entire_binding() });
-        let bg_mm = dev.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("minmax"),
-            layout: &bgl_mm,
-            entries: &bind0,
-        });
-        gpu.dispatch("minmax", &minmax, &[&bg_mm], ((count as u32).div_ceil(64), 1, 1))?;
-        let raw: Vec<f32> = bytemuck::cast_slice(&gpu.read_buffer(&blocks_buf)?).to_vec();
-        bounds.extend(raw.chunks(2).map(|b| [b[0], b[1]]));
-        z0 += nz;
-    }
-    Ok(bounds)
 }
 
 /// Per-block flags (1 = every value in the block maps to zero opacity) from
@@ -407,7 +360,7 @@ impl<'a> DvrScene<'a> {
             None => (&self.pipeline, &self.bgl_rc),
         };
         let bg_rc = dev.create_bind_group(&wgpu::BindGroupDescriptor { label: None, layout, entries: &entries });
-        let times = crate::render::iso::timed_banded_frames(
+        let times = crate::gpu::timing::timed_banded_frames(
             gpu,
             pipeline,
             [&self.bg_s, &bg_rc],

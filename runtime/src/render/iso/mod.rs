@@ -2,14 +2,15 @@
 //! template (`templates/raycast.wgsl.j2`), the BB min/max block grid from the
 //! emitted min/max kernel, and a CPU reference ray caster for tests.
 
+pub mod renderer;
 use crate::gpu::binding::{storage_entry, uniform_entry};
 use crate::gpu::{Gpu, GpuError};
+use crate::render::blocks::{self, block_bounds};
 use crate::volume::DeviceVolume;
 use crate::volume::LatticeVolume;
 use boxforge::derive::Derivation;
 use boxforge::emit::{emit, EmitOptions, Layout};
 use glam::{DVec3, Vec3};
-use std::time::Instant;
 
 #[derive(Clone, Debug)]
 pub struct RenderOptions {
@@ -113,54 +114,6 @@ pub struct Frame {
     pub empty_blocks: f64,
 }
 
-/// Times a row-banded image kernel (8x8 workgroups, bind groups 0 and 1):
-/// one warm-up frame (with a progress bar when asked), then `frames` timed
-/// frames of submit + wait. The uniform `params` is written to its buffer
-/// once per band with the band's first row set by `set_row`. `shape` is
-/// (width, height, rows per band); `what` is (label, progress bar text,
-/// progress). Returns the frame times in ms, sorted.
-pub(crate) fn timed_banded_frames<P: bytemuck::Pod>(
-    gpu: &Gpu,
-    pipeline: &wgpu::ComputePipeline,
-    groups: [&wgpu::BindGroup; 2],
-    (params_buf, params, set_row): (&wgpu::Buffer, P, impl Fn(&mut P, u32)),
-    (width, height, band): (u32, u32, u32),
-    (label, bar_text, progress): (&str, &str, bool),
-    frames: usize,
-) -> Result<Vec<f64>, GpuError> {
-    let band = band.max(1);
-    let frame = |report: bool| -> Result<f64, GpuError> {
-        let start = Instant::now();
-        let bar = if report { crate::progress::bar(height as u64, bar_text) } else { indicatif::ProgressBar::hidden() };
-        let mut y0 = 0u32;
-        while y0 < height {
-            let rows = band.min(height - y0);
-            let mut p = params;
-            set_row(&mut p, y0);
-            gpu.queue.write_buffer(params_buf, 0, bytemuck::bytes_of(&p));
-            let mut enc = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
-            {
-                let mut pass =
-                    enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: None, timestamp_writes: None });
-                pass.set_pipeline(pipeline);
-                pass.set_bind_group(0, groups[0], &[]);
-                pass.set_bind_group(1, groups[1], &[]);
-                pass.dispatch_workgroups(width.div_ceil(8), rows.div_ceil(8), 1);
-            }
-            gpu.queue.submit([enc.finish()]);
-            gpu.wait()?;
-            y0 += rows;
-            bar.set_position(y0 as u64);
-        }
-        bar.finish_and_clear();
-        Ok(start.elapsed().as_secs_f64() * 1e3)
-    };
-    gpu.checked(&format!("{label} warm-up"), || frame(progress))??;
-    let mut times: Vec<f64> = (0..frames).map(|_| frame(false)).collect::<Result<_, _>>()?;
-    times.sort_by(|a, b| a.total_cmp(b));
-    Ok(times)
-}
-
 /// The uniform layout of a direction or position: xyz and a zero w.
 fn v4(a: Vec3) -> [f32; 4] {
     a.extend(0.0).to_array()
@@ -173,8 +126,13 @@ fn d3(a: [f32; 4]) -> DVec3 {
 
 /// [`valid_box`] as glam vectors.
 fn valid_box_vec(d: &Derivation, vol: &LatticeVolume) -> (Vec3, Vec3) {
-    let r = crate::verify::support_radius(d) as f32;
-    let dims = Vec3::new(vol.dims[0] as f32, vol.dims[1] as f32, vol.dims[2] as f32);
+    box_of(crate::verify::support_radius(d), vol.dims)
+}
+
+/// The valid box of a volume of `dims` samples for a support of `radius` cells.
+fn box_of(radius: usize, dims: [usize; 3]) -> (Vec3, Vec3) {
+    let r = radius as f32;
+    let dims = Vec3::new(dims[0] as f32, dims[1] as f32, dims[2] as f32);
     (Vec3::splat(r), dims - 1.0 - r)
 }
 
@@ -193,7 +151,14 @@ pub fn view_direction(azimuth: f32, elevation: f32) -> [f64; 3] {
 }
 
 pub fn ray_params(d: &Derivation, vol: &LatticeVolume, o: &RenderOptions) -> RayParams {
-    let (lo, hi) = valid_box_vec(d, vol);
+    ray_params_for(crate::verify::support_radius(d), vol.dims, o)
+}
+
+/// [`ray_params`] for a volume of `dims` samples and a filter whose support
+/// reaches `radius` cells (what a renderer keeps after the upload).
+pub(crate) fn ray_params_for(radius: usize, dims: [usize; 3], o: &RenderOptions) -> RayParams {
+    let (lo, hi) = box_of(radius, dims);
+    let vol_dims = dims;
     let center = (lo + hi) * 0.5;
     let radius = 0.5 * (hi - lo).length();
     let forward = Vec3::from_array(view_direction(o.azimuth, o.elevation).map(|x| x as f32));
@@ -213,9 +178,9 @@ pub fn ray_params(d: &Derivation, vol: &LatticeVolume, o: &RenderOptions) -> Ray
         (center - forward * (radius * 2.0), radius * 1.05)
     };
     let blocks = [
-        (vol.dims[0] as i32 + o.block - 1) / o.block,
-        (vol.dims[1] as i32 + o.block - 1) / o.block,
-        (vol.dims[2] as i32 + o.block - 1) / o.block,
+        (vol_dims[0] as i32 + o.block - 1) / o.block,
+        (vol_dims[1] as i32 + o.block - 1) / o.block,
+        (vol_dims[2] as i32 + o.block - 1) / o.block,
         0,
     ];
     RayParams {
@@ -801,36 +766,17 @@ pub fn render_with_depth(
     let dev = &gpu.device;
     let dv = DeviceVolume::new(gpu, vol, layout)?;
     let nblocks = (params.blocks[0] * params.blocks[1] * params.blocks[2]) as usize;
-    let out_binding = if layout == Layout::Packed { 2 } else { 1 };
-
-    // Min/max block grids with the emitted kernel: blocks of `edge` cubes.
-    let mut entries0 = dv.layout_entries(0, wgpu::ShaderStages::COMPUTE);
-    entries0.push(storage_entry(out_binding, false));
-    entries0.push(uniform_entry(out_binding + 1));
-    let bgl_mm =
-        dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("minmax"), entries: &entries0 });
-    let minmax = gpu.pipeline("minmax", &shader, &[&bgl_mm], &format!("{name}_minmax_main"))?;
-    let grid = |blocks: [i32; 3], edge: i32| -> Result<(wgpu::Buffer, Vec<f32>), GpuError> {
-        let count = (blocks[0] * blocks[1] * blocks[2]) as usize;
-        let buf = gpu.storage_buffer("blocks", &vec![0u8; count * 8], true);
-        let job: [i32; 8] = [0, 0, 0, 0, blocks[0], blocks[1], blocks[2], edge];
-        let job_buf = gpu.uniform_buffer("job", bytemuck::cast_slice(&job));
-        let mut bind0 = dv.bind_entries(0);
-        bind0.push(wgpu::BindGroupEntry { binding: out_binding, resource: buf.as_entire_binding() });
-        bind0.push(wgpu::BindGroupEntry { binding: out_binding + 1, resource: job_buf.as_entire_binding() });
-        let bg_mm = dev.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("minmax"),
-            layout: &bgl_mm,
-            entries: &bind0,
-        });
-        gpu.dispatch("minmax", &minmax, &[&bg_mm], ((count as u32).div_ceil(64), 1, 1))?;
-        let bounds: Vec<f32> = bytemuck::cast_slice(&gpu.read_buffer(&buf)?).to_vec();
-        Ok((buf, bounds))
+    // Min/max block grids with the emitted kernel: blocks of `o.block` cubes,
+    // and for the exact walk, which also tests each segment's cube (or small
+    // block) on its own, the fine grid.
+    let bounds = block_bounds(gpu, &shader, name, &dv, vol.dims, o.block)?;
+    let blocks_buf = blocks::upload(gpu, "blocks", &bounds);
+    let empty = bounds.iter().filter(|b| o.iso < b[0] || o.iso > b[1]).count() as f64 / nblocks.max(1) as f64;
+    let fine_buf = if exact {
+        Some(blocks::upload(gpu, "fine blocks", &block_bounds(gpu, &shader, name, &dv, vol.dims, fine)?))
+    } else {
+        None
     };
-    let (blocks_buf, bounds) = grid([params.blocks[0], params.blocks[1], params.blocks[2]], o.block)?;
-    let empty = bounds.chunks(2).filter(|b| o.iso < b[0] || o.iso > b[1]).count() as f64 / nblocks.max(1) as f64;
-    // The exact walk also tests each segment's cube (or small block) on its own.
-    let fine_buf = if exact { Some(grid(fine_blocks, fine)?.0) } else { None };
 
     // Ray casting.
     let bgl_s = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -866,7 +812,7 @@ pub fn render_with_depth(
         ],
     });
     // One dispatch per frame, or bands of rows with a progress line.
-    let times = timed_banded_frames(
+    let times = crate::gpu::timing::timed_banded_frames(
         gpu,
         &raycast,
         [&bg_s, &bg_rc],

@@ -39,10 +39,9 @@
 
 use crate::gpu::binding::{storage_entry, storage_texture_entry, texture_entry, uniform_entry};
 use crate::gpu::{Gpu, GpuError};
+use crate::render::blocks::block_bounds;
 use crate::render::dvr::transfer::{Preint, Tf1d, TransferFunction};
-use crate::render::dvr::{
-    block_bounds, caster_entries, filter_module, shader_source_with, Caster, DvrOptions, DvrScene,
-};
+use crate::render::dvr::{caster_entries, filter_module, shader_source_with, Caster, DvrOptions, DvrScene};
 use crate::render::iso::Frame;
 use std::time::Instant;
 use wgpu::util::DeviceExt;

@@ -1,0 +1,243 @@
+//! The isosurface renderer a host drives frame by frame: built once (shader
+//! compiled, block grids computed, buffers allocated for a size), then
+//! [`IsoRenderer::encode`] records a frame into the host's encoder and
+//! colour target. A frame after the first at the same size creates no
+//! shader module, buffer or texture and writes no texture; it writes the
+//! ray parameters only when the camera changed.
+
+use super::{fine_grid, ray_params_for, raycast_shader, HitMode, RayParams, RenderOptions};
+use crate::gpu::binding::{storage_entry, uniform_entry};
+use crate::gpu::Gpu;
+use crate::render::blocks::{self, block_bounds};
+use crate::render::camera::{Camera, Target};
+use crate::render::present::Presenter;
+use crate::render::RenderError;
+use crate::volume::DeviceVolume;
+use boxforge::derive::Derivation;
+
+/// What an isosurface looks like, independent of the frame.
+#[derive(Clone, Copy, Debug)]
+pub struct IsoOptions {
+    pub iso: f32,
+    /// Ray step in cells (the fixed-step walk).
+    pub step: f32,
+    /// Edge of the min/max blocks in unit cubes.
+    pub block: i32,
+    /// Empty-space skipping with the block grid.
+    pub skip: bool,
+    /// Fixed steps or exact first hits.
+    pub hit: HitMode,
+}
+
+impl Default for IsoOptions {
+    fn default() -> Self {
+        let o = RenderOptions::default();
+        IsoOptions { iso: o.iso, step: o.step, block: o.block, skip: o.skip, hit: o.hit }
+    }
+}
+
+/// The per-size part: the image the ray caster writes and its bind groups.
+struct Sized {
+    width: u32,
+    height: u32,
+    format: wgpu::TextureFormat,
+    caster: wgpu::BindGroup,
+    present: wgpu::BindGroup,
+    image: wgpu::Buffer,
+    depth: wgpu::Buffer,
+}
+
+/// An isosurface of one volume with one filter, rendered per frame into a
+/// host's target (see the module documentation).
+pub struct IsoRenderer {
+    gpu: Gpu,
+    name: String,
+    options: IsoOptions,
+    radius: usize,
+    dims: [usize; 3],
+    pipeline: wgpu::ComputePipeline,
+    caster_layout: wgpu::BindGroupLayout,
+    samples: wgpu::BindGroup,
+    params: wgpu::Buffer,
+    last_params: Option<RayParams>,
+    blocks: wgpu::Buffer,
+    fine: Option<wgpu::Buffer>,
+    empty_blocks: f64,
+    presenter: Presenter,
+    sized: Option<Sized>,
+}
+
+impl IsoRenderer {
+    /// Compiles the ray caster of `d` for `volume`'s layout, bounds the
+    /// blocks with the emitted min/max kernel and binds the samples (the
+    /// volume stays shared: other renderers may bind it too).
+    pub fn new(
+        gpu: &Gpu,
+        d: &Derivation,
+        volume: &DeviceVolume,
+        options: IsoOptions,
+    ) -> Result<IsoRenderer, RenderError> {
+        let name = d.filter.name.clone();
+        let fine = fine_grid(volume.dims, options.block);
+        let source = raycast_shader(d, volume.layout, options.hit, fine, "boxforge_runtime::render::iso::IsoRenderer")?;
+        let shader = gpu.compile(&format!("{name}.raycast.wgsl"), &source)?;
+        let bounds = block_bounds(gpu, &shader, &name, volume, volume.dims, options.block)?;
+        let empty_blocks = bounds.iter().filter(|b| options.iso < b[0] || options.iso > b[1]).count() as f64
+            / bounds.len().max(1) as f64;
+        let blocks = blocks::upload(gpu, "blocks", &bounds);
+        let fine = if options.hit == HitMode::Exact {
+            Some(blocks::upload(gpu, "fine blocks", &block_bounds(gpu, &shader, &name, volume, volume.dims, fine.0)?))
+        } else {
+            None
+        };
+        let dev = &gpu.device;
+        let samples_layout = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("samples"),
+            entries: &volume.layout_entries(0, wgpu::ShaderStages::COMPUTE),
+        });
+        let caster_layout = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("raycast"),
+            entries: &[
+                uniform_entry(0),
+                storage_entry(1, false),
+                storage_entry(2, true),
+                storage_entry(3, false),
+                storage_entry(4, true),
+            ],
+        });
+        let pipeline =
+            gpu.pipeline("raycast", &shader, &[&samples_layout, &caster_layout], &format!("{name}_raycast_main"))?;
+        let samples = dev.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("samples"),
+            layout: &samples_layout,
+            entries: &volume.bind_entries(0),
+        });
+        let params = gpu.uniform_buffer("ray params", bytemuck::bytes_of(&RayParams::zeroed()));
+        Ok(IsoRenderer {
+            gpu: gpu.clone(),
+            name,
+            options,
+            radius: crate::verify::support_radius(d),
+            dims: volume.dims,
+            pipeline,
+            caster_layout,
+            samples,
+            params,
+            last_params: None,
+            blocks,
+            fine,
+            empty_blocks,
+            presenter: Presenter::new(gpu)?,
+            sized: None,
+        })
+    }
+
+    /// The fraction of blocks whose bounds exclude the iso-value.
+    pub fn empty_blocks(&self) -> f64 {
+        self.empty_blocks
+    }
+
+    /// The filter this renderer evaluates.
+    pub fn filter_name(&self) -> &str {
+        &self.name
+    }
+
+    /// Records one frame into `encoder`: the ray caster (one dispatch), then
+    /// the image drawn into `target`. Buffers are (re)allocated only when
+    /// the target's size or format changes.
+    pub fn encode(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        target: &Target<'_>,
+        camera: &Camera,
+    ) -> Result<(), RenderError> {
+        if target.width == 0 || target.height == 0 {
+            return Err(RenderError::EmptyTarget);
+        }
+        self.resize(target)?;
+        let o = RenderOptions {
+            iso: self.options.iso,
+            width: target.width,
+            height: target.height,
+            azimuth: camera.azimuth,
+            elevation: camera.elevation,
+            perspective: camera.perspective,
+            skip: self.options.skip,
+            step: self.options.step,
+            block: self.options.block,
+            hit: self.options.hit,
+            ..RenderOptions::default()
+        };
+        let params = ray_params_for(self.radius, self.dims, &o);
+        if self.last_params.map(|p| bytemuck::bytes_of(&p) != bytemuck::bytes_of(&params)).unwrap_or(true) {
+            self.gpu.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
+            self.last_params = Some(params);
+        }
+        let sized = self.sized.as_ref().expect("resized above");
+        {
+            let mut pass = encoder
+                .begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("raycast"), timestamp_writes: None });
+            pass.set_pipeline(&self.pipeline);
+            pass.set_bind_group(0, &self.samples, &[]);
+            pass.set_bind_group(1, &sized.caster, &[]);
+            pass.dispatch_workgroups(target.width.div_ceil(8), target.height.div_ceil(8), 1);
+        }
+        self.presenter.encode(encoder, target.view, target.format, &sized.present);
+        Ok(())
+    }
+
+    /// Copies the last frame's hit depths (ray parameter t per pixel, -1 for
+    /// a miss) into `encoder`-recorded reads: the buffer a host may bind.
+    pub fn depth_buffer(&self) -> Option<&wgpu::Buffer> {
+        self.sized.as_ref().map(|s| &s.depth)
+    }
+
+    /// The last frame's image buffer (one RGBA8 word per pixel, rows from the top).
+    pub fn image_buffer(&self) -> Option<&wgpu::Buffer> {
+        self.sized.as_ref().map(|s| &s.image)
+    }
+
+    fn resize(&mut self, target: &Target<'_>) -> Result<(), RenderError> {
+        if let Some(s) = &self.sized {
+            if (s.width, s.height, s.format) == (target.width, target.height, target.format) {
+                return Ok(());
+            }
+        }
+        let gpu = &self.gpu;
+        let limit = gpu.limits().max_storage_buffer_binding_size as u64;
+        let bytes = target.width as u64 * target.height as u64 * 4;
+        if bytes > limit {
+            return Err(RenderError::TargetTooLarge { width: target.width, height: target.height, limit });
+        }
+        self.presenter.prepare(gpu, target.format)?;
+        let image = gpu.storage_buffer("image", &vec![0u8; bytes as usize], true);
+        let depth = gpu.storage_buffer("depth", &vec![0u8; bytes as usize], true);
+        let caster = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("raycast"),
+            layout: &self.caster_layout,
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: self.params.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 1, resource: image.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 2, resource: self.blocks.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 3, resource: depth.as_entire_binding() },
+                wgpu::BindGroupEntry {
+                    binding: 4,
+                    resource: self.fine.as_ref().unwrap_or(&self.blocks).as_entire_binding(),
+                },
+            ],
+        });
+        let present = self.presenter.bind(gpu, &image, target.width, target.format);
+        self.sized = Some(Sized {
+            width: target.width,
+            height: target.height,
+            format: target.format,
+            caster,
+            present,
+            image,
+            depth,
+        });
+        Ok(())
+    }
+}
+
+use bytemuck::Zeroable as _;
