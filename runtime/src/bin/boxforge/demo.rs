@@ -37,7 +37,7 @@ struct Row {
 
 pub fn run(out: &Path, size: u32, adapter: Option<&str>) -> Result<(), String> {
     let started = Instant::now();
-    let steps = crate::progress::Steps::new();
+    let steps = boxforge_runtime::progress::Steps::new();
     steps.step("generating the catalog into shaders-out/");
     // 1. The catalog.
     let command = "boxforge generate --all -o shaders-out";
