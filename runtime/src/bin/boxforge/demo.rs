@@ -2,7 +2,7 @@
 
 use boxforge::build::output::{generated_files, write_files, ALL_LAYOUTS, ALL_VARIANTS};
 use boxforge::derive::Derivation;
-use boxforge::emit::{Layout, Variant};
+use boxforge::emit::Layout;
 use boxforge_runtime::gpu::Gpu;
 use boxforge_runtime::pictures::html::{self, Block};
 use boxforge_runtime::pictures::plots::{self, log_slope, Series};
@@ -10,13 +10,14 @@ use boxforge_runtime::pictures::text::Typeface;
 use boxforge_runtime::pictures::{self, Image, Tile};
 use boxforge_runtime::render::dvr::transfer::TransferFunction;
 use boxforge_runtime::render::dvr::DvrOptions;
-use boxforge_runtime::render::iso::{self as render, valid_box, RenderOptions};
+use boxforge_runtime::render::iso::{self as render, RenderOptions};
 use boxforge_runtime::scene::{self, matched_edge, Conversion};
-use boxforge_runtime::verify::{gpu_eval, Rng};
-use boxforge_runtime::volume::DeviceVolume;
-use boxforge_runtime::volume::{marschner_lobb, ml_position, LatticeVolume, Volume};
+use boxforge_runtime::volume::{LatticeVolume, Volume};
 use std::path::Path;
 use std::time::Instant;
+
+mod measure;
+use measure::{error_slice, evals_per_second, ml_error};
 
 const FILTERS: [&str; 4] = ["cc_tricubic", "bcc7", "bcc8", "fcc6"];
 /// Marschner-Lobb budget: about 41^3 samples on every lattice.
@@ -37,7 +38,7 @@ struct Row {
 
 pub fn run(out: &Path, size: u32, adapter: Option<&str>) -> Result<(), String> {
     let started = Instant::now();
-    let steps = crate::progress::Steps::new();
+    let steps = boxforge_runtime::progress::Steps::new();
     steps.step("generating the catalog into shaders-out/");
     // 1. The catalog.
     let command = "boxforge generate --all -o shaders-out";
@@ -305,8 +306,6 @@ pub fn run(out: &Path, size: u32, adapter: Option<&str>) -> Result<(), String> {
     Ok(())
 }
 
-/// RMS and max error of the spline (GPU eval) against the analytic
-/// Marschner-Lobb function at random points of the valid box.
 /// Marschner-Lobb at about 41^3 samples, volume rendered with the
 /// marschner-lobb preset by the renderers of Mattausch et al. (2003) side by
 /// side: ray-cast sheared trilinear (the variant for this view) and
@@ -366,31 +365,6 @@ fn literature_sheet(gpu: &Gpu, face: &Typeface, size: u32) -> Result<Image, Stri
     ))
 }
 
-fn ml_error(gpu: &Gpu, d: &Derivation, ml: &LatticeVolume, points: usize) -> Result<(f64, f64), String> {
-    let (lo, hi) = valid_box(d, ml);
-    let mut rng = Rng(2024);
-    let pts: Vec<[f32; 4]> = (0..points)
-        .map(|_| {
-            let mut p = [0f32; 4];
-            for i in 0..3 {
-                p[i] = lo[i] + (rng.next_f64() as f32) * (hi[i] - lo[i]);
-            }
-            p
-        })
-        .collect();
-    let dv = DeviceVolume::new(gpu, ml, Layout::Embedded).map_err(|e| e.to_string())?;
-    let (values, _) = gpu_eval(gpu, d, &dv, Variant::Fast, &pts).map_err(|e| e.to_string())?;
-    let mut sum = 0.0;
-    let mut max: f64 = 0.0;
-    for (p, v) in pts.iter().zip(&values) {
-        let x = ml_position(ml.dims, [p[0] as f64, p[1] as f64, p[2] as f64]);
-        let e = *v as f64 - marschner_lobb(x);
-        sum += e * e;
-        max = max.max(e.abs());
-    }
-    Ok(((sum / points as f64).sqrt(), max))
-}
-
 fn contact_sheet(frames: &[render::Frame], columns: usize, size: u32) -> Vec<u8> {
     let (w, h) = (size as usize * columns, size as usize * 2);
     let mut out = vec![0u8; w * h * 4];
@@ -410,43 +384,4 @@ fn contact_sheet(frames: &[render::Frame], columns: usize, size: u32) -> Vec<u8>
 /// "bcc7 (bcc)": the filter and its lattice, for captions.
 fn caption_head(d: &Derivation) -> String {
     format!("{} ({})", d.filter.name, d.filter.lattice.name)
-}
-
-/// |spline - analytic| on a square grid over the middle z slice of the valid box.
-struct Slice {
-    width: u32,
-    z: f32,
-    values: Vec<f64>,
-}
-
-fn error_slice(gpu: &Gpu, d: &Derivation, ml: &LatticeVolume, size: u32) -> Result<Slice, String> {
-    let (lo, hi) = valid_box(d, ml);
-    let n = (size / 2).max(16);
-    let z = 0.5 * (lo[2] + hi[2]);
-    let pts: Vec<[f32; 4]> = (0..n * n)
-        .map(|i| {
-            let (x, y) = ((i % n) as f32 + 0.5, (i / n) as f32 + 0.5);
-            [lo[0] + x / n as f32 * (hi[0] - lo[0]), hi[1] - y / n as f32 * (hi[1] - lo[1]), z, 0.0]
-        })
-        .collect();
-    let dv = DeviceVolume::new(gpu, ml, Layout::Embedded).map_err(|e| e.to_string())?;
-    let (values, _) = gpu_eval(gpu, d, &dv, Variant::Fast, &pts).map_err(|e| e.to_string())?;
-    let values = pts
-        .iter()
-        .zip(&values)
-        .map(|(p, v)| (*v as f64 - marschner_lobb(ml_position(ml.dims, [p[0] as f64, p[1] as f64, p[2] as f64]))).abs())
-        .collect();
-    Ok(Slice { width: n, z, values })
-}
-
-/// evals/s of `<f>_eval` at 2^18 random points of the volume: the median of
-/// three timed dispatches after a warm-up (a figure for the plot; the
-/// benchmark's interleaved ratios are in docs/BENCHMARKS.md).
-fn evals_per_second(gpu: &Gpu, d: &Derivation, vol: &LatticeVolume) -> Result<f64, String> {
-    let pts = boxforge_runtime::verify::random_points(d, vol, 1 << 18, 5);
-    let dv = DeviceVolume::new(gpu, vol, Layout::Embedded).map_err(|e| e.to_string())?;
-    let rates = boxforge_runtime::bench::eval_rates(gpu, d, &dv, &pts, 3)?;
-    let mut r = rates;
-    r.sort_by(f64::total_cmp);
-    Ok(r[r.len() / 2])
 }

@@ -1,0 +1,229 @@
+//! `boxforge bench`: the main benchmark (evaluation throughput, rendering,
+//! gradients, quality), and the modes that write their own section of the
+//! Markdown file (`--derive`, `--literature`, `--perm`).
+
+use crate::common::{Failure, Section};
+use boxforge_runtime::bench;
+use boxforge_runtime::gpu::Gpu;
+use boxforge_runtime::volume::Volume;
+use boxforge_runtime::{progress, request, scene};
+use std::path::PathBuf;
+
+#[derive(clap::Args)]
+pub struct BenchArgs {
+    /// Comma-separated filters (default: the 3D catalog filters).
+    #[arg(long, value_delimiter = ',')]
+    filters: Vec<String>,
+    /// A seconds-long smoke run (numbers not meaningful).
+    #[arg(long)]
+    smoke: bool,
+    /// Skip the naive variant (its shaders compile slowly on lavapipe).
+    #[arg(long)]
+    no_naive: bool,
+    /// Skip the quality section.
+    #[arg(long)]
+    no_quality: bool,
+    /// Measure Lim and Shin's PERM cache instead (DVR with the cache vs
+    /// direct evaluation for bcc_linear, bcc7, bcc12, cc_tricubic at
+    /// N = 3, 5, 10 and (5, 3)): with --markdown, replaces only its
+    /// section of the file.
+    #[arg(long, conflicts_with_all = ["derive", "literature"])]
+    perm: bool,
+    /// Time the derivation of a fixed, seeded set of random specs instead
+    /// (no GPU): with --markdown, replaces only its section of the file.
+    #[arg(long)]
+    derive: bool,
+    /// How many seeded random specs --derive uses (default 105).
+    #[arg(long, requires = "derive")]
+    specs: Option<usize>,
+    /// Measure the reconstructions and renderers of the source papers
+    /// instead (Mattausch et al.'s BCC schemes, projected tetrahedra on BCC
+    /// and CC, and ours), with each paper's claim and whether it holds here:
+    /// with --markdown, replaces only its section of the file.
+    #[arg(long, conflicts_with = "derive")]
+    literature: bool,
+    /// Skip the hand-written references (generated vs hand-written).
+    #[arg(long)]
+    no_references: bool,
+    /// Interleaved timing rounds per comparison (default: 7, or 3 with --smoke).
+    #[arg(long)]
+    runs: Option<usize>,
+    #[arg(long)]
+    json: bool,
+    /// Write the report as Markdown (e.g. docs/BENCHMARKS.md).
+    #[arg(long)]
+    markdown: Option<PathBuf>,
+    /// A WGSL file with an evaluation function `fn NAME(p: vec3<f32>) -> f32`
+    /// to time beside the generated module of --like (it is appended to
+    /// that module, so it can use its bindings and `<filter>_fetch`).
+    #[arg(long, requires_all = ["entry", "like"])]
+    wgsl: Option<String>,
+    #[arg(long)]
+    entry: Option<String>,
+    #[arg(long)]
+    like: Option<String>,
+    #[arg(long)]
+    adapter: Option<String>,
+}
+
+pub fn run(a: BenchArgs) -> Result<(), Failure> {
+    if a.derive {
+        derive(&a)
+    } else if a.literature {
+        literature(&a)
+    } else if a.perm {
+        perm(&a)
+    } else {
+        main_report(a)
+    }
+}
+
+/// ` --smoke` and ` --runs R` as given, for the command line in the file.
+fn smoke_runs(a: &BenchArgs, with_runs: bool) -> String {
+    let mut flags = String::new();
+    if a.smoke {
+        flags.push_str(" --smoke");
+    }
+    if let (true, Some(r)) = (with_runs, a.runs) {
+        flags.push_str(&format!(" --runs {r}"));
+    }
+    flags
+}
+
+fn open_gpu(adapter: Option<&str>) -> Result<Gpu, Failure> {
+    let gpu = Gpu::new(adapter).map_err(|e| Failure(e.to_string()))?;
+    eprintln!("benchmarking on {}", gpu.describe());
+    Ok(gpu)
+}
+
+/// The MNI head (not in smoke runs, nor when data/ lacks it).
+fn head(smoke: bool) -> Result<Option<Volume>, Failure> {
+    match (smoke, scene::data_file("mni152_t1_1mm.nii.gz")) {
+        (false, Some(p)) => Ok(Some(Volume::load_nifti(&p).map_err(|e| Failure(e.to_string()))?)),
+        _ => Ok(None),
+    }
+}
+
+/// `--derive`: derivation times of seeded random specs (no GPU).
+fn derive(a: &BenchArgs) -> Result<(), Failure> {
+    let count = a.specs.unwrap_or(105);
+    let section = Section::new("derivation", &format!("--derive --specs {count}"), a.markdown.as_deref())?;
+    let started = std::time::Instant::now();
+    let report = bench::derive::run(count);
+    eprintln!("{} specs in {:.1} s", report.rows.len(), started.elapsed().as_secs_f64());
+    let text = bench::derive::markdown(&report, section.command());
+    section.finish(&report, &text, bench::derive::splice, a.json)
+}
+
+/// `--literature`: the source papers' reconstructions and renderers.
+fn literature(a: &BenchArgs) -> Result<(), Failure> {
+    let gpu = open_gpu(a.adapter.as_deref())?;
+    let (points, rounds, pt_size) = if a.smoke { (4096, 2, 32) } else { (1 << 18, a.runs.unwrap_or(7), 256) };
+    let flags = format!("--literature{}", smoke_runs(a, false));
+    let section = Section::new("literature", &flags, a.markdown.as_deref())?;
+    let steps = progress::Steps::new();
+    // The head at 2 mm (projected tetrahedra of the 1 mm head take about a minute a frame on lavapipe).
+    let head = head(a.smoke)?.map(|h| h.downsample(2));
+    let report = bench::literature::run(&gpu, points, rounds, pt_size, head.as_ref(), &|m: &str| steps.step(m));
+    steps.finish();
+    let report = report?;
+    let text = bench::literature::markdown(&report, section.command());
+    section.finish(&report, &text, bench::literature::splice, a.json)
+}
+
+/// `--perm`: Lim and Shin's PERM cache against direct evaluation.
+fn perm(a: &BenchArgs) -> Result<(), Failure> {
+    let gpu = open_gpu(a.adapter.as_deref())?;
+    let (size, rounds) = if a.smoke { (32, 1) } else { (256, a.runs.unwrap_or(3)) };
+    let flags = format!("--perm{}", smoke_runs(a, true));
+    let section = Section::new("PERM", &flags, a.markdown.as_deref())?;
+    let head = head(a.smoke)?;
+    let steps = progress::Steps::new();
+    let report = bench::perm::run(&gpu, head.as_ref(), size, rounds, &|m: &str| steps.step(m));
+    steps.finish();
+    let report = report?;
+    let text = bench::perm::markdown(&report, section.command());
+    section.finish(&report, &text, bench::perm::splice, a.json)
+}
+
+/// The main report: throughput, rendering, gradients, quality; with
+/// --markdown the whole file, keeping the other modes' sections.
+fn main_report(a: BenchArgs) -> Result<(), Failure> {
+    let BenchArgs { filters, smoke, no_naive, no_quality, no_references, runs, json, markdown, .. } = a;
+    let external = match (a.wgsl, a.entry, a.like) {
+        (Some(w), Some(e), Some(l)) => Some(bench::External { wgsl: w, entry: e, like: l }),
+        (None, None, None) => None,
+        _ => return Err(Failure("--wgsl, --entry and --like go together: give all three".into())),
+    };
+    let mut o = match (&external, filters.is_empty()) {
+        // An external shader alone times only that pair.
+        (Some(x), true) => bench::BenchOptions::external_only(x.clone()),
+        _ if smoke => bench::BenchOptions::smoke(),
+        _ => bench::BenchOptions::full(),
+    };
+    if !filters.is_empty() {
+        o.filters = filters;
+    }
+    o.naive &= !no_naive;
+    o.quality &= !no_quality;
+    // The CLI's smoke run includes the references (the library's
+    // smoke options, used by the CI test, leave them to bench_refs).
+    o.references = (o.references || smoke) && !no_references;
+    if let Some(r) = runs {
+        o.runs = r.max(1);
+    }
+    if external.is_some() {
+        o.external = external;
+    }
+    bench::check_inputs(&o)?;
+    if let Some(m) = &markdown {
+        request::check_output_file(m, "--markdown")?;
+    }
+    let gpu = open_gpu(a.adapter.as_deref())?;
+    let mut cmd = String::from("boxforge bench");
+    if smoke {
+        cmd.push_str(" --smoke");
+    }
+    if let Some(r) = runs {
+        cmd.push_str(&format!(" --runs {r}"));
+    }
+    if let Some(m) = &markdown {
+        cmd.push_str(&format!(" --markdown {}", m.display()));
+    }
+    // Keep the sections of the other modes (`bench --derive`, `--literature`, `--perm`) of an existing file.
+    let old = markdown.as_ref().and_then(|m| std::fs::read_to_string(m).ok()).unwrap_or_default();
+    let write_markdown = |report: &bench::BenchReport| -> Result<(), Failure> {
+        if let Some(m) = &markdown {
+            let mut text = bench::markdown(report, &cmd);
+            let kept = [
+                bench::derive::existing_section(&old),
+                bench::literature::existing_section(&old),
+                bench::perm::existing_section(&old),
+            ];
+            for section in kept.into_iter().flatten() {
+                text = format!("{}\n\n{section}\n", text.trim_end());
+            }
+            boxforge::build::output::write_atomic(m, text.as_bytes())?;
+        }
+        Ok(())
+    };
+    let steps = progress::Steps::new();
+    // Every snapshot is written as it comes: an interrupted run keeps what it measured.
+    let report = bench::run_with(&gpu, &o, &|m: &str| steps.step(m), &|partial| {
+        if let Err(Failure(e)) = write_markdown(partial) {
+            steps.println(&format!("warning: could not save the partial report: {e}"));
+        }
+    });
+    steps.finish();
+    let report = report?;
+    if let Some(m) = &markdown {
+        write_markdown(&report)?;
+        eprintln!("wrote {}", m.display());
+    }
+    if json {
+        outln!("{}", serde_json::to_string(&report).expect("the report serialises"));
+    } else if markdown.is_none() {
+        outln!("{}", bench::markdown(&report, &cmd));
+    }
+    Ok(())
+}

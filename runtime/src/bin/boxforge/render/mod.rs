@@ -1,0 +1,292 @@
+//! `boxforge render`: an isosurface, or with --mode dvr a direct volume
+//! rendering (ray cast, PERM-cached, projected tetrahedra or a hand-written
+//! scheme: see dvr.rs), to PNG on the GPU.
+
+mod dvr;
+
+use crate::common::{parse_view, Failure, LayoutArg};
+use boxforge::derive::Derivation;
+use boxforge::emit::Layout;
+use boxforge::spec;
+use boxforge_runtime::gpu::Gpu;
+use boxforge_runtime::render::dvr::transfer::TransferFunction;
+use boxforge_runtime::render::iso::{self as render, HitMode, RenderOptions};
+use boxforge_runtime::render::perm;
+use boxforge_runtime::render::schemes::Scheme;
+use boxforge_runtime::request;
+use boxforge_runtime::scene::{self, Conversion};
+
+#[derive(clap::Args)]
+pub struct RenderArgs {
+    /// iso: isosurface; dvr: emission-absorption volume rendering with --tf.
+    #[arg(long, value_enum, default_value = "iso")]
+    mode: ModeArg,
+    /// Transfer function for --mode dvr: a preset (mni-tissue, mni-opaque, marschner-lobb) or a JSON file.
+    #[arg(long)]
+    tf: Option<String>,
+    /// --mode dvr: point-sample the transfer function (opacity-corrected) instead of pre-integrating.
+    #[arg(long)]
+    no_preintegration: bool,
+    /// --mode dvr: none, or perm (precompute density and gradient at quantized positions of the cells
+    /// the transfer function shows, and look them up; Lim and Shin's PERM).
+    #[arg(long, value_enum, default_value = "none")]
+    cache: CacheArg,
+    /// --mode dvr: raycast, or pt (projected tetrahedra, Mattausch et al.: the Delaunay tetrahedra of
+    /// BCC or the Kuhn tetrahedra of CC cubes rasterised back to front, barycentric interpolation,
+    /// orthographic; the filter sets the lattice and the clipped box).
+    #[arg(long, value_enum, default_value = "raycast")]
+    renderer: RendererArg,
+    /// --renderer pt: gouraud (lighting at the vertices) or phong (per fragment), with smooth vertex normals.
+    #[arg(long, value_enum, default_value = "phong")]
+    shading: dvr::ShadingArg,
+    /// --cache perm: density positions per cell axis (N^3 per cell; default 5).
+    #[arg(long)]
+    qc: Option<u32>,
+    /// --cache perm: gradient positions per cell axis (M^3 per cell; default --qc).
+    #[arg(long)]
+    qc_grad: Option<u32>,
+    /// --cache perm: opaque-boundary peeling (drop the cached cells no ray reaches before it
+    /// terminates; the image is unchanged for views from outside the volume).
+    #[arg(long)]
+    peel: bool,
+    #[arg(long)]
+    filter: String,
+    /// `ml:N` (Marschner-Lobb, about N^3 samples), a .nii/.nii.gz file, or a raw file with --raw.
+    #[arg(long)]
+    volume: String,
+    /// Raw volume format: nx,ny,nz,type (type u8, u16 or f32).
+    #[arg(long)]
+    raw: Option<String>,
+    /// Data lattice (default: the filter's).
+    #[arg(long)]
+    lattice: Option<String>,
+    /// Lattice subset of a Cartesian volume (default).
+    #[arg(long, conflicts_with = "resample")]
+    subset: bool,
+    /// Resample a Cartesian volume on the lattice at a matched sample count.
+    #[arg(long)]
+    resample: bool,
+    #[arg(long, default_value_t = 0.5, allow_negative_numbers = true)]
+    iso: f32,
+    #[arg(long, default_value_t = 512)]
+    size: u32,
+    /// Azimuth,elevation in degrees.
+    #[arg(long, default_value = "30,25", allow_hyphen_values = true)]
+    view: String,
+    #[arg(long)]
+    perspective: bool,
+    /// Turn empty-space skipping off.
+    #[arg(long)]
+    no_skip: bool,
+    /// Ray step in cells.
+    #[arg(long, default_value_t = 0.25, allow_negative_numbers = true)]
+    step: f32,
+    /// First hit: exact (ray cut at knot planes, Bernstein root isolation: no thin
+    /// feature missed) or fixed steps of --step (default: the faster one on lavapipe).
+    #[arg(long, value_enum, default_value = "step")]
+    hit: HitArg,
+    #[arg(long, value_enum, default_value = "embedded")]
+    layout: LayoutArg,
+    #[arg(long)]
+    adapter: Option<String>,
+    #[arg(long, default_value = "out.png")]
+    out: std::path::PathBuf,
+}
+
+/// `--mode`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+enum ModeArg {
+    Iso,
+    Dvr,
+}
+
+/// `--cache`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+enum CacheArg {
+    None,
+    Perm,
+}
+
+/// `--renderer`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+enum RendererArg {
+    Raycast,
+    Pt,
+}
+
+/// `--hit`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+enum HitArg {
+    Exact,
+    Step,
+}
+
+impl From<HitArg> for HitMode {
+    fn from(h: HitArg) -> HitMode {
+        match h {
+            HitArg::Exact => HitMode::Exact,
+            HitArg::Step => HitMode::Step,
+        }
+    }
+}
+
+// The request checks of the library take the words of the command line.
+impl ModeArg {
+    fn name(self) -> &'static str {
+        match self {
+            ModeArg::Iso => "iso",
+            ModeArg::Dvr => "dvr",
+        }
+    }
+}
+
+impl CacheArg {
+    fn name(self) -> &'static str {
+        match self {
+            CacheArg::None => "none",
+            CacheArg::Perm => "perm",
+        }
+    }
+}
+
+impl RendererArg {
+    fn name(self) -> &'static str {
+        match self {
+            RendererArg::Raycast => "raycast",
+            RendererArg::Pt => "pt",
+        }
+    }
+}
+
+pub fn run(a: RenderArgs) -> Result<(), Failure> {
+    let (az, el) = parse_view(&a.view)?;
+    let (size, mode, cache) = (a.size, a.mode.name(), a.cache.name());
+    request::check_render_numbers(size, a.step, a.iso, az, el)?;
+    request::check_output_file(&a.out, "--out")?;
+    let dvr = request::check_render_mode(mode, a.tf.as_deref(), a.no_preintegration)?;
+    let perm = perm::check_request(cache, mode, a.qc, a.qc_grad)?;
+    if a.peel && perm.is_none() {
+        return Err(Failure("--peel peels the PERM cache: add --cache perm (with --mode dvr)".into()));
+    }
+    let pt = request::check_renderer(a.renderer.name(), mode, cache, a.perspective)?;
+    let tf = match &dvr {
+        Some(name) => Some(TransferFunction::load(name)?),
+        None => None,
+    };
+    let layout = Layout::from(a.layout);
+    // Mattausch et al.'s hand-written plane-stack schemes: ray-cast DVR on BCC only.
+    let scheme = Scheme::parse(&a.filter);
+    if let Some(s) = scheme {
+        request::check_scheme(s.name(), mode, cache, pt, layout.name())?;
+    }
+    let mut f = match scheme {
+        Some(_) => spec::resolve("bcc_linear")?,
+        None => spec::resolve(&a.filter)?,
+    };
+    if f.view_dependent {
+        // The variant for this frame's view (Mattausch et al.: shear
+        // planes and shear direction follow the view direction).
+        let (f_view, choice) = f.view_variant(render::view_direction(az, el))?;
+        eprintln!("{choice}");
+        f = f_view;
+    }
+    let d = Derivation::new(&f)?;
+    if d.facts.dim != 3 {
+        return Err(Failure(format!("{} is {}D: render needs a 3D filter", f.name, d.facts.dim)));
+    }
+    let lat = match &a.lattice {
+        Some(l) => boxforge::spec::lattice::Lattice::builtin(l)?,
+        None => f.lattice.clone(),
+    };
+    if lat != f.lattice {
+        return Err(Failure(format!(
+            "filter {} is defined on the {} lattice, not {}: pick a filter for that lattice",
+            f.name, f.lattice.name, lat.name
+        )));
+    }
+    if pt && boxforge_runtime::render::pt::tets::Grid::of(&lat).is_none() {
+        return Err(Failure(format!(
+            "--renderer pt has tetrahedral meshes for BCC and CC data, not the {} lattice of {}: pick a BCC or CC filter, or drop --renderer pt",
+            lat.name, f.name
+        )));
+    }
+    let conversion = if a.resample { Conversion::Resample } else { Conversion::Subset };
+    let vol = scene::load(&a.volume, a.raw.as_deref(), &lat, conversion).map_err(|e| Failure(e.to_string()))?;
+    let (lo, hi) = vol.data.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
+    let warning = match &tf {
+        Some(tf) => request::tf_warning(&tf.table(), lo, hi),
+        None => request::iso_warning(a.iso, lo, hi),
+    };
+    if let Some(w) = warning {
+        eprintln!("{w}");
+    }
+    let gpu = Gpu::new(a.adapter.as_deref()).map_err(|e| Failure(e.to_string()))?;
+    request::check_image_limits(size, &gpu.limits())?;
+    let shown = scheme.map_or(f.name.as_str(), |s| s.name());
+    eprintln!("rendering {} ({} samples) with {shown} on {} ...", a.volume, vol.samples(), gpu.describe());
+    let frame = match &tf {
+        Some(tf) => {
+            let how = match (scheme, perm) {
+                (Some(s), _) => dvr::How::Scheme(s),
+                _ if pt => dvr::How::Pt(a.shading.into()),
+                (None, Some(q)) => dvr::How::Perm(q, a.peel),
+                (None, None) => dvr::How::RayCast,
+            };
+            let o = boxforge_runtime::render::dvr::DvrOptions {
+                width: size,
+                height: size,
+                azimuth: az,
+                elevation: el,
+                perspective: a.perspective,
+                skip: !a.no_skip,
+                preintegrate: !a.no_preintegration,
+                step: a.step,
+                progress: true,
+                frames: 1,
+                ..Default::default()
+            };
+            dvr::frame(&gpu, &d, &vol, layout, tf, &o, how)
+        }
+        None => {
+            let opts = RenderOptions {
+                iso: a.iso,
+                width: size,
+                height: size,
+                azimuth: az,
+                elevation: el,
+                perspective: a.perspective,
+                skip: !a.no_skip,
+                step: a.step,
+                hit: a.hit.into(),
+                progress: true,
+                frames: 1,
+                ..RenderOptions::default()
+            };
+            render::render(&gpu, &d, &vol, layout, &opts)
+        }
+    }
+    .map_err(|e| Failure(e.to_string()))?;
+    let out = &a.out;
+    render::write_png(out, frame.width, frame.height, &frame.rgba)
+        .map_err(|e| Failure(format!("cannot write {}: {e}", out.display())))?;
+    if tf.is_some() {
+        outln!(
+            "{}: {}x{} volume rendering in {:.1} ms per frame ({:.0}% of blocks transparent under the transfer function)",
+            out.display(),
+            size,
+            size,
+            frame.ms_per_frame,
+            frame.empty_blocks * 100.0
+        );
+    } else {
+        outln!(
+            "{}: {}x{} in {:.1} ms per frame ({:.0}% of blocks empty)",
+            out.display(),
+            size,
+            size,
+            frame.ms_per_frame,
+            frame.empty_blocks * 100.0
+        );
+    }
+    Ok(())
+}

@@ -1,0 +1,102 @@
+//! `boxforge verify`: a filter's eval / eval_grad on the GPU against the
+//! exact evaluator; exit 1 when it fails.
+
+use crate::common::{Failure, FetchArg, FormArg, LayoutArg, VariantArg};
+use boxforge::derive::Derivation;
+use boxforge::emit::{Bounds, EvalForm, FetchMode, Layout, Variant};
+use boxforge::spec;
+use boxforge_runtime::gpu::Gpu;
+use boxforge_runtime::request;
+
+#[derive(clap::Args)]
+pub struct VerifyArgs {
+    /// Catalog name or spec file (3D filters).
+    #[arg(long)]
+    filter: String,
+    #[arg(long, value_enum, default_value = "embedded")]
+    layout: LayoutArg,
+    #[arg(long, value_enum, default_value = "fast")]
+    variant: VariantArg,
+    /// Evaluation form (default: the filter's own, `auto`: the cheapest).
+    #[arg(long, value_enum)]
+    form: Option<FormArg>,
+    /// Fetch bounds: clamp to the volume, or unchecked (caller pads).
+    #[arg(long, value_enum, default_value = "clamp")]
+    bounds: BoundsArg,
+    /// Fetches in eval: exact texel loads, or hardware linear filtering
+    /// (tensor-product filters on the cc lattice, embedded layout).
+    #[arg(long, value_enum, default_value = "exact")]
+    fetch: FetchArg,
+    #[arg(long, default_value_t = 100_000)]
+    points: usize,
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Adapter name (substring); default: WGPU_ADAPTER_NAME or the best available.
+    #[arg(long)]
+    adapter: Option<String>,
+    #[arg(long)]
+    json: bool,
+}
+
+/// `--bounds`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum BoundsArg {
+    Clamp,
+    Unchecked,
+}
+
+impl From<BoundsArg> for Bounds {
+    fn from(b: BoundsArg) -> Bounds {
+        match b {
+            BoundsArg::Clamp => Bounds::Clamp,
+            BoundsArg::Unchecked => Bounds::Unchecked,
+        }
+    }
+}
+
+pub fn run(a: VerifyArgs) -> Result<(), Failure> {
+    let VerifyArgs { filter, layout, variant, form, bounds, fetch, points, seed, adapter, json } = a;
+    request::check_points(points)?;
+    let f = spec::resolve(&filter)?;
+    let d = Derivation::new(&f)?;
+    let gpu = Gpu::new(adapter.as_deref()).map_err(|e| Failure(e.to_string()))?;
+    let layout = Layout::from(layout);
+    let variant = Variant::from(variant);
+    let form = form.map(EvalForm::from);
+    let r = boxforge_runtime::verify::verify_fetch(
+        &gpu,
+        &d,
+        layout,
+        variant,
+        form,
+        Bounds::from(bounds),
+        FetchMode::from(fetch),
+        points,
+        seed,
+    )
+    .map_err(|e| Failure(e.to_string()))?;
+    if json {
+        outln!("{}", serde_json::to_string(&r).unwrap());
+    } else {
+        outln!(
+            "{} ({}, {}, form {}, {} {} fetches) on {}: {} points, max |value error| {:.3e} (range {:.3}), max relative gradient error {:.3e}: {}",
+            r.filter,
+            layout.name(),
+            variant.name(),
+            r.form.name(),
+            r.bounds.name(),
+            r.fetch.name(),
+            r.adapter,
+            r.points,
+            r.max_abs_err,
+            r.data_range,
+            r.max_rel_grad_err,
+            if r.passed { "PASSED" } else { "FAILED" }
+        );
+    }
+    if r.passed {
+        Ok(())
+    } else {
+        std::process::exit(1)
+    }
+}
