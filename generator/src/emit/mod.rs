@@ -25,8 +25,8 @@ pub mod writer;
 use bounds::cube_bounds_fn;
 use coset::helpers;
 pub use coset::{coset_of, coset_pivots};
-use locate::{emit_eval_body, PieceForm};
-use naive::naive_tables;
+use locate::{emit_eval_body, Fast, PieceForm};
+use naive::{naive_tables, Naive};
 pub use writer::{count_ops, lit};
 use writer::{Shapes, AXES};
 
@@ -311,8 +311,8 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
     }
     let (form, forms, eval_body, grad_body) = if naive {
         // The naive variant measures branches and tables, on the dense form.
-        let e = emit_eval_body(d, &plan, &sh, name, false, true, PieceForm::Dense);
-        let g = emit_eval_body(d, &plan, &sh, name, true, true, PieceForm::Dense);
+        let e = emit_eval_body(d, &plan, &sh, name, false, &Naive, PieceForm::Dense);
+        let g = emit_eval_body(d, &plan, &sh, name, true, &Naive, PieceForm::Dense);
         let cost = FormCost {
             form: EvalForm::Dense,
             fetches: plan.fetches(),
@@ -555,8 +555,8 @@ fn choose_form(
         (EvalForm::Dense, PieceForm::Dense),
     ] {
         if wanted(f) && !skip_plan_forms && (f != EvalForm::Ridge || ridge_ok) {
-            let e = emit_eval_body(d, plan, sh, name, false, false, piece);
-            let g = emit_eval_body(d, plan, sh, name, true, false, piece);
+            let e = emit_eval_body(d, plan, sh, name, false, &Fast, piece);
+            let g = emit_eval_body(d, plan, sh, name, true, &Fast, piece);
             bodies.push((f, plan.fetches(), e, g));
         }
     }
