@@ -12,8 +12,10 @@
 //! `build.rs` (not run here: it needs the spec file and Cargo's `OUT_DIR`):
 //!
 //! ```no_run
+//! use boxforge::Builder;
+//!
 //! fn main() {
-//!     boxforge::Builder::new().filter("bcc7").spec_file("filters/my_filter.toml").generate().unwrap();
+//!     Builder::new().filter("bcc7").spec_file("filters/my_filter.toml").generate().unwrap();
 //! }
 //! ```
 //!
@@ -53,8 +55,10 @@ pub const BUILDER_COMMAND: &str = "boxforge::Builder (build.rs)";
 ///
 /// ```no_run
 /// // build.rs (not run here: it needs the spec file and Cargo's `OUT_DIR`)
+/// use boxforge::Builder;
+///
 /// fn main() {
-///     boxforge::Builder::new().filter("bcc7").spec_file("filters/my_filter.toml").generate().unwrap();
+///     Builder::new().filter("bcc7").spec_file("filters/my_filter.toml").generate().unwrap();
 /// }
 /// ```
 ///
