@@ -1,9 +1,9 @@
 //! Writing generated files: atomically (temp file + rename), with a header
 //! naming the command that made them, deterministically.
 
-use crate::build::report::Report;
+use crate::build::report::{module_bindings, Report, ShaderReport};
 use crate::derive::Derivation;
-use crate::emit::{emit, EmitOptions, EmitStats, FetchMode, Layout, Variant};
+use crate::emit::{emit, EmitOptions, FetchMode, Layout, Variant};
 use crate::error::{Error, Result};
 use std::path::{Path, PathBuf};
 
@@ -44,7 +44,8 @@ pub fn generated_files(
 ///
 /// # Errors
 ///
-/// As [`generated_files`], and [`Error::Spec`] where linear fetches do not
+/// As [`generated_files`], [`Error::Unsupported`] when an emitted module does
+/// not validate, and [`Error::Spec`] where linear fetches do not
 /// apply (the naive variant; the embedded layout of a filter that is not a
 /// one-coset tensor product).
 pub fn generated_files_with(
@@ -60,7 +61,8 @@ pub fn generated_files_with(
         for &variant in variants {
             let opts = EmitOptions { layout, variant, command: command.to_string(), fetch, ..EmitOptions::default() };
             let e = emit(d, &opts)?;
-            stats.push(e.stats);
+            let bindings = module_bindings(&d.filter.name, &e.file_name, &e.source)?;
+            stats.push(ShaderReport { stats: e.stats, bindings });
             files.push((e.file_name, e.source));
         }
     }
@@ -78,7 +80,7 @@ pub fn report_files(d: &Derivation, command: &str) -> Vec<(String, String)> {
     report_files_with(d, command, vec![])
 }
 
-fn report_files_with(d: &Derivation, command: &str, shaders: Vec<EmitStats>) -> Vec<(String, String)> {
+fn report_files_with(d: &Derivation, command: &str, shaders: Vec<ShaderReport>) -> Vec<(String, String)> {
     let mut report = Report::new(d);
     report.shaders = shaders;
     let name = &d.filter.name;

@@ -5,12 +5,22 @@ use crate::derive::arrangement::KnotFamily;
 use crate::derive::Derivation;
 use crate::math::exact::Q;
 use crate::math::linalg::{IVec, QVec};
+use crate::validate::Binding;
 use serde::Serialize;
 use std::fmt::Write;
+
+/// The version of the JSON layout of [`Report`]: raise it whenever a key is
+/// added, removed, renamed or changes meaning, so that readers of the
+/// checked-in reports can tell (a test pins the keys to this number).
+///
+/// 2: `schema_version` itself and a `bindings` table per shader module.
+pub const REPORT_SCHEMA_VERSION: u32 = 2;
 
 /// Everything `inspect` shows about one filter and `generate` writes next to its shaders.
 #[derive(Serialize)]
 pub struct Report {
+    /// The JSON layout's version, [`REPORT_SCHEMA_VERSION`].
+    pub schema_version: u32,
     /// Filter name (the prefix of the WGSL identifiers).
     pub name: String,
     /// Free-text description from the spec.
@@ -60,9 +70,9 @@ pub struct Report {
     pub cells: Vec<CellReport>,
     /// How the fast shaders locate points, and their fetch order.
     pub evaluation: EvaluationReport,
-    /// Counts of the emitted shaders (filled by `generate`).
+    /// Counts and bindings of the emitted shaders (filled by `generate`).
     #[serde(skip_serializing_if = "Vec::is_empty")]
-    pub shaders: Vec<crate::emit::EmitStats>,
+    pub shaders: Vec<ShaderReport>,
     /// Hardware-filtered fetches, where the filter allows them.
     pub linear_fetch: Option<LinearFetchReport>,
     /// Hardware-filtered fetches on the packed layout (pairs per coset).
@@ -74,6 +84,36 @@ pub struct Report {
     /// files `generate` writes, which must be the same bytes every run).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub derivation_seconds: Option<f64>,
+}
+
+/// One emitted module in the report: its counts and the bindings it declares.
+#[derive(Clone, Debug, Serialize)]
+pub struct ShaderReport {
+    /// The emitter's counts (their keys sit at the top level of the JSON object).
+    #[serde(flatten)]
+    pub stats: crate::emit::EmitStats,
+    /// Every binding the module declares, read from the validated module
+    /// (see [`module_bindings`]).
+    pub bindings: Vec<Binding>,
+}
+
+/// The bindings of an emitted module of filter `filter`, read from its
+/// validated naga module, each with the hand-written purpose of its name
+/// ([`crate::emit::binding_purpose`]).
+///
+/// # Errors
+///
+/// [`crate::Error::Unsupported`] naming the module when the source does not
+/// validate (an emitter bug: every emitted module must validate).
+pub fn module_bindings(filter: &str, file_name: &str, source: &str) -> crate::Result<Vec<Binding>> {
+    let mut bindings = crate::validate::bindings_of_wgsl(source).map_err(|message| crate::Error::Unsupported {
+        origin: format!("module {file_name}"),
+        message: format!("the emitted WGSL does not validate: {message}"),
+    })?;
+    for b in &mut bindings {
+        b.purpose = crate::emit::binding_purpose(filter, &b.name).map(str::to_string);
+    }
+    Ok(bindings)
 }
 
 /// Reports list every piece's BB and power coefficients up to this many
@@ -296,6 +336,7 @@ impl Report {
         let detailed = polynomials <= DETAIL_LIMIT_POLYNOMIALS;
         let plan = crate::emit::plan::Plan::new(d);
         Report {
+            schema_version: REPORT_SCHEMA_VERSION,
             name: f.name.clone(),
             description: f.description.clone(),
             dimension: f.dim(),
@@ -519,7 +560,7 @@ impl Report {
         let _ = writeln!(s, "{}", e.fetch_order.iter().map(iv).collect::<Vec<_>>().join(" → "));
         if !self.shaders.is_empty() {
             let _ = writeln!(s, "\n| layout | variant | form | fetches/eval | vector adds | ops in eval | ops in eval_grad |\n|---|---|---|---|---|---|---|");
-            for st in &self.shaders {
+            for st in self.shaders.iter().map(|sr| &sr.stats) {
                 let _ = writeln!(
                     s,
                     "| {} | {} | {} | {} | {} | {} | {} |",
@@ -533,7 +574,7 @@ impl Report {
                 );
             }
             let _ = writeln!(s, "\n(ops: operators, comparisons, selects and builtin calls in the WGSL source; the naive variant's loops are counted once. The naive variant keeps the dense form: it measures branches and lookup tables.)");
-            if let Some(st) = self.shaders.iter().find(|st| st.variant.name() == "fast") {
+            if let Some(st) = self.shaders.iter().map(|sr| &sr.stats).find(|st| st.variant.name() == "fast") {
                 let _ = writeln!(
                     s,
                     "\n### Evaluation forms\n\nThe generator emits every exact form available for this filter and keeps the cheapest by its cost model (ops in eval + ops in eval_grad; exact loads are the same for every form). Chosen: **{}**.\n\n| form | fetches | ops in eval | ops in eval_grad | cost |\n|---|---|---|---|---|",
@@ -548,6 +589,31 @@ impl Report {
                         f.ops_eval,
                         f.ops_eval_grad,
                         f.cost()
+                    );
+                }
+            }
+        }
+        if !self.shaders.is_empty() {
+            let _ = writeln!(
+                s,
+                "\n### Bindings\n\nRead from each validated module (naga). Used by: entry points, and the functions no other function calls (the module's API).\n\n| layout | variant | fetch | group | binding | name | kind | format | used by | host puts there |\n|---|---|---|---|---|---|---|---|---|---|"
+            );
+            for sr in &self.shaders {
+                for b in &sr.bindings {
+                    let used: Vec<&str> = b.entry_points.iter().chain(&b.functions).map(String::as_str).collect();
+                    let _ = writeln!(
+                        s,
+                        "| {} | {} | {} | {} | {} | `{}` | `{}` | {} | {} | {} |",
+                        sr.stats.layout.name(),
+                        sr.stats.variant.name(),
+                        sr.stats.fetch.name(),
+                        b.group,
+                        b.binding,
+                        b.name,
+                        b.kind,
+                        b.format.as_ref().map(|f| format!("`{f}`")).unwrap_or_else(|| "-".into()),
+                        if used.is_empty() { "-".to_string() } else { used.join(", ") },
+                        b.purpose.as_deref().unwrap_or("-")
                     );
                 }
             }
@@ -642,5 +708,166 @@ impl Report {
             let _ = writeln!(s, "    {} {}", iv(&w.offset), w.w);
         }
         s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::build::output::{generated_files, ALL_LAYOUTS, ALL_VARIANTS};
+    use crate::spec::catalog;
+
+    /// The JSON layout that [`REPORT_SCHEMA_VERSION`] stands for: the
+    /// top-level keys, the keys of a `shaders` entry and of a binding. A
+    /// change of layout must change the version too, and then this pin.
+    const PINNED: (u32, &[&str], &[&str], &[&str]) = (
+        2,
+        &[
+            "generated_by",
+            "schema_version",
+            "name",
+            "description",
+            "dimension",
+            "lattice",
+            "lattice_generators",
+            "lattice_det",
+            "directions",
+            "degree",
+            "approximation_order",
+            "continuity",
+            "support_volume",
+            "knot_planes",
+            "grid_offset",
+            "cube_classes",
+            "cube_class_corners",
+            "cells_per_fundamental_domain",
+            "polynomial_pieces_per_fundamental_domain",
+            "symmetry_order",
+            "reference_pieces",
+            "max_stencil_size",
+            "prefilter",
+            "prefilter_shells",
+            "cells",
+            "evaluation",
+            "shaders",
+            "linear_fetch",
+            "linear_fetch_packed",
+            "work",
+        ],
+        &[
+            "layout",
+            "variant",
+            "locate",
+            "candidates",
+            "fetches_per_eval",
+            "vector_adds",
+            "matvec_adds",
+            "ops_eval",
+            "ops_eval_grad",
+            "form",
+            "forms",
+            "bounds",
+            "fetch",
+            "bindings",
+        ],
+        &["group", "binding", "name", "kind", "format", "entry_points", "functions", "purpose"],
+    );
+
+    fn zp_report() -> serde_json::Value {
+        let d = Derivation::new(&catalog::get("zp").unwrap()).unwrap();
+        let files = generated_files(&d, "test", &ALL_LAYOUTS, &ALL_VARIANTS).unwrap();
+        let json = &files.iter().find(|(n, _)| n == "zp.json").expect("the JSON report is generated").1;
+        serde_json::from_str(json).unwrap()
+    }
+
+    /// The keys of a JSON object, sorted (the layout is the set of keys).
+    fn keys(v: &serde_json::Value) -> Vec<&str> {
+        let mut k: Vec<&str> = v.as_object().expect("an object").keys().map(String::as_str).collect();
+        k.sort_unstable();
+        k
+    }
+
+    fn sorted(k: &[&'static str]) -> Vec<&'static str> {
+        let mut k = k.to_vec();
+        k.sort_unstable();
+        k
+    }
+
+    #[test]
+    fn json_layout_is_the_one_its_schema_version_names() {
+        let v = zp_report();
+        let shader = &v["shaders"][0];
+        let found = (
+            v["schema_version"].as_u64().expect("schema_version is a number") as u32,
+            keys(&v),
+            keys(shader),
+            keys(&shader["bindings"][0]),
+        );
+        assert_eq!(REPORT_SCHEMA_VERSION, PINNED.0, "the pin is of the current version");
+        assert_eq!(
+            found,
+            (PINNED.0, sorted(PINNED.1), sorted(PINNED.2), sorted(PINNED.3)),
+            "the report's JSON layout changed: raise REPORT_SCHEMA_VERSION and update PINNED"
+        );
+    }
+
+    #[test]
+    fn bindings_of_each_module_are_read_from_its_wgsl() {
+        let v = zp_report();
+        let rows = |layout: &str, variant: &str| -> Vec<String> {
+            let shader = v["shaders"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .find(|s| s["layout"] == layout && s["variant"] == variant)
+                .expect("every layout and variant is reported");
+            shader["bindings"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|b| {
+                    format!(
+                        "{}/{} {} {} {} ep={} fn={} purpose={}",
+                        b["group"],
+                        b["binding"],
+                        b["name"].as_str().unwrap(),
+                        b["kind"].as_str().unwrap(),
+                        b["format"].as_str().unwrap_or("-"),
+                        b["entry_points"].as_array().unwrap().len(),
+                        b["functions"]
+                            .as_array()
+                            .unwrap()
+                            .iter()
+                            .map(|f| f.as_str().unwrap())
+                            .collect::<Vec<_>>()
+                            .join(","),
+                        b["purpose"].is_string()
+                    )
+                })
+                .collect()
+        };
+        // The sample bindings come first, then the kernels' (out, job); every
+        // known name has its purpose; eval, eval_grad and the fetch are
+        // helpers of nothing else only where no other function calls them.
+        let embedded = rows("embedded", "fast");
+        assert_eq!(embedded.len(), 3, "{embedded:#?}");
+        assert!(embedded[0].starts_with("0/0 zp_volume texture_2d<f32> - ep=2 fn="), "{embedded:#?}");
+        assert!(embedded[0].contains("zp_eval,zp_eval_grad") && embedded[0].ends_with("purpose=true"));
+        assert_eq!(embedded[1], "0/1 zp_out storage buffer read_write array<f32> ep=2 fn= purpose=true");
+        assert_eq!(embedded[2], "0/2 zp_job uniform buffer zp_Job ep=2 fn= purpose=true");
+        let packed = rows("packed", "naive");
+        assert_eq!(packed.len(), 4, "{packed:#?}");
+        assert!(packed[0].starts_with("0/0 zp_samples storage buffer read array<f32> ep=2 fn="), "{packed:#?}");
+        assert!(packed[1].starts_with("0/1 zp_grid uniform buffer zp_Grid ep=2 fn="), "{packed:#?}");
+        assert_eq!(packed[2], "0/2 zp_out storage buffer read_write array<f32> ep=2 fn= purpose=true");
+        assert_eq!(packed[3], "0/3 zp_job uniform buffer zp_Job ep=2 fn= purpose=true");
+    }
+
+    #[test]
+    fn unknown_names_have_no_purpose() {
+        let b = module_bindings("zp", "x.wgsl", "@group(0) @binding(0) var<uniform> zp_other: vec4<f32>;").unwrap();
+        assert_eq!(b.len(), 1);
+        assert_eq!(b[0].purpose, None);
+        assert!(module_bindings("zp", "x.wgsl", "not wgsl").is_err());
     }
 }

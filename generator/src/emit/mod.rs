@@ -256,6 +256,24 @@ pub struct EmitStats {
     pub fetch: FetchMode,
 }
 
+/// What the host must bind to the variable `name` of a module emitted for
+/// filter `filter`, in one sentence; `None` for a name the emitter does not
+/// write. Hand-written because the meaning of the bytes is not in the WGSL;
+/// the numbers (group, binding, type) are read from the module itself
+/// ([`crate::validate::bindings_of_wgsl`]).
+pub fn binding_purpose(filter: &str, name: &str) -> Option<&'static str> {
+    Some(match name.strip_prefix(filter)?.strip_prefix('_')? {
+        "volume" => "The samples as an r32float texture: lattice point j at texel j (the other texels are unused).",
+        "samples" => "The samples packed per coset of 2Z^s: lattice point j at word coset(j) * grid.size.w + the row-major index of j >> 1 in the coset grid.",
+        "grid" => "The coset grid: its size (x, y, z or x, y) and, in w, the words per coset.",
+        "linear" => "A linear, clamp-to-edge sampler for the hardware-filtered fetches.",
+        "cosets" => "The packed samples again as one filterable r32float texture, the cosets stacked as slabs along the last axis (slab c = coset c).",
+        "out" => "The kernels' output buffer: one prefiltered value per point of the job's box (row-major), or a (min, max) pair per block for minmax.",
+        "job" => "The kernel's job: the box's lattice-coordinate origin and extent, and the block edge B in extent.w for minmax.",
+        _ => return None,
+    })
+}
+
 /// One emitted WGSL module: its file name, source and counts.
 #[derive(Clone, Debug)]
 pub struct Emitted {
