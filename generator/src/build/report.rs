@@ -120,6 +120,36 @@ pub fn module_bindings(filter: &str, file_name: &str, source: &str) -> crate::Re
 /// polynomials; beyond it the JSON would run to hundreds of megabytes.
 pub const DETAIL_LIMIT_POLYNOMIALS: usize = 4096;
 
+/// What [`Report::with_options`] lists.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ReportOptions {
+    /// List every piece's BB and power coefficients whatever the size (a
+    /// caller that wants them all, e.g. for an offline check, accepts the
+    /// size of the JSON). Off by default.
+    pub all_coefficients: bool,
+    /// Without `all_coefficients`, coefficients are listed up to this many
+    /// polynomials (default [`DETAIL_LIMIT_POLYNOMIALS`]).
+    pub detail_limit: usize,
+}
+
+impl Default for ReportOptions {
+    fn default() -> Self {
+        ReportOptions { all_coefficients: false, detail_limit: DETAIL_LIMIT_POLYNOMIALS }
+    }
+}
+
+impl ReportOptions {
+    /// Every coefficient listed, however many polynomials.
+    pub fn all_coefficients() -> Self {
+        ReportOptions { all_coefficients: true, ..ReportOptions::default() }
+    }
+
+    /// Whether a derivation with `polynomials` polynomials has its coefficients listed.
+    pub fn lists_coefficients(&self, polynomials: usize) -> bool {
+        self.all_coefficients || polynomials <= self.detail_limit
+    }
+}
+
 /// How big the derivation was expected to be and was.
 #[derive(Clone, Debug, Serialize)]
 pub struct WorkReport {
@@ -127,7 +157,7 @@ pub struct WorkReport {
     pub estimate: crate::derive::Estimate,
     /// Reference pieces x their stencils, as derived.
     pub polynomials: usize,
-    /// Whether BB and power coefficients are listed (see [`DETAIL_LIMIT_POLYNOMIALS`]).
+    /// Whether BB and power coefficients are listed (see [`ReportOptions`]).
     pub coefficients_listed: bool,
 }
 
@@ -330,10 +360,15 @@ pub struct CellReport {
 impl Report {
     /// Collects the report from a derivation (coefficients only up to [`DETAIL_LIMIT_POLYNOMIALS`]).
     pub fn new(d: &Derivation) -> Report {
+        Report::with_options(d, &ReportOptions::default())
+    }
+
+    /// Collects the report from a derivation, listing coefficients as `opts` says.
+    pub fn with_options(d: &Derivation, opts: &ReportOptions) -> Report {
         let f = &d.filter;
         let arr = &d.arrangement;
         let polynomials = d.polynomials();
-        let detailed = polynomials <= DETAIL_LIMIT_POLYNOMIALS;
+        let detailed = opts.lists_coefficients(polynomials);
         let plan = crate::emit::plan::Plan::new(d);
         Report {
             schema_version: REPORT_SCHEMA_VERSION,
@@ -861,6 +896,30 @@ mod tests {
         assert!(packed[1].starts_with("0/1 zp_grid uniform buffer zp_Grid ep=2 fn="), "{packed:#?}");
         assert_eq!(packed[2], "0/2 zp_out storage buffer read_write array<f32> ep=2 fn= purpose=true");
         assert_eq!(packed[3], "0/3 zp_job uniform buffer zp_Job ep=2 fn= purpose=true");
+    }
+
+    #[test]
+    fn all_coefficients_lists_them_past_the_limit() {
+        let d = Derivation::new(&catalog::get("bcc_sheared_trilinear").unwrap()).unwrap();
+        let counts = |r: &Report| -> (bool, usize, usize) {
+            (
+                r.work.coefficients_listed,
+                r.reference_pieces.iter().map(|p| p.bb.len()).sum(),
+                r.reference_pieces.iter().flat_map(|p| &p.power).map(|p| p.terms.len()).sum(),
+            )
+        };
+        let limited = ReportOptions { detail_limit: d.polynomials() - 1, ..ReportOptions::default() };
+        let (listed, bb, power) = counts(&Report::with_options(&d, &limited));
+        assert_eq!((listed, bb, power), (false, 0, 0), "over the limit nothing is listed");
+        let all = ReportOptions { all_coefficients: true, ..limited };
+        let full = Report::with_options(&d, &all);
+        let (listed, _, power) = counts(&full);
+        assert!(listed && power > 0, "all_coefficients lists them past the limit");
+        // Under the default limit this small filter lists the same coefficients.
+        assert_eq!(full.to_json(), Report::new(&d).to_json());
+        assert_eq!(ReportOptions::all_coefficients(), ReportOptions { all_coefficients: true, ..Default::default() });
+        assert!(ReportOptions::default().lists_coefficients(DETAIL_LIMIT_POLYNOMIALS));
+        assert!(!ReportOptions::default().lists_coefficients(DETAIL_LIMIT_POLYNOMIALS + 1));
     }
 
     #[test]
