@@ -9,18 +9,30 @@
 //! A module that does not validate is an [`Error::InvalidWgsl`]; it is never
 //! written.
 //!
-//! `build.rs`:
+//! `build.rs` (not run here: it needs the spec file and Cargo's `OUT_DIR`):
 //!
-//! ```ignore
+//! ```no_run
+//! use boxforge::Builder;
+//!
 //! fn main() {
-//!     boxforge::Builder::new().filter("bcc7").spec_file("filters/my_filter.toml").generate().unwrap();
+//!     Builder::new().filter("bcc7").spec_file("filters/my_filter.toml").generate().unwrap();
 //! }
 //! ```
 //!
-//! and in the crate, the module as a string for `wgpu::ShaderSource::Wgsl`:
+//! and in the crate, the module as a string for `wgpu::ShaderSource::Wgsl`,
+//! embedded at compile time with
+//! `include_str!(concat!(env!("OUT_DIR"), "/bcc7.embedded.wgsl"))`. That line
+//! only compiles in a crate whose build script ran, so the example below does
+//! the same at run time, into a directory of its own:
 //!
-//! ```ignore
-//! const BCC7_WGSL: &str = include_str!(concat!(env!("OUT_DIR"), "/bcc7.embedded.wgsl"));
+//! ```
+//! let dir = std::env::temp_dir().join(format!("boxforge-doc-module-{}", std::process::id()));
+//! let generated = boxforge::Builder::new().filter("zp").out_dir(&dir).generate()?;
+//! assert_eq!(generated.files, vec![dir.join("zp.embedded.wgsl")]);
+//! let zp_wgsl = std::fs::read_to_string(&generated.files[0])?;
+//! assert!(zp_wgsl.contains("fn zp_eval(p: vec2<f32>) -> f32"));
+//! # std::fs::remove_dir_all(&dir)?;
+//! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 //!
 //! The header of every generated file names `boxforge::Builder (build.rs)`
@@ -41,16 +53,29 @@ pub const BUILDER_COMMAND: &str = "boxforge::Builder (build.rs)";
 ///
 /// Configure by value and finish with [`generate`](Builder::generate):
 ///
-/// ```ignore
-/// // build.rs
+/// ```no_run
+/// // build.rs (not run here: it needs the spec file and Cargo's `OUT_DIR`)
+/// use boxforge::Builder;
+///
 /// fn main() {
-///     boxforge::Builder::new().filter("bcc7").spec_file("filters/my_filter.toml").generate().unwrap();
+///     Builder::new().filter("bcc7").spec_file("filters/my_filter.toml").generate().unwrap();
 /// }
 /// ```
 ///
-/// ```ignore
-/// // src/main.rs
-/// const BCC7_WGSL: &str = include_str!(concat!(env!("OUT_DIR"), "/bcc7.embedded.wgsl"));
+/// In the crate, `include_str!(concat!(env!("OUT_DIR"), "/bcc7.embedded.wgsl"))`
+/// then embeds the module (see the [module docs](crate::build::builder)). Options change the
+/// file and its bindings, e.g. the packed layout in bind group 1:
+///
+/// ```
+/// use boxforge::emit::Layout;
+/// let dir = std::env::temp_dir().join(format!("boxforge-doc-builder-{}", std::process::id()));
+/// let generated =
+///     boxforge::Builder::new().filter("zp").layout(Layout::Packed).bind_group(1).out_dir(&dir).generate()?;
+/// assert_eq!(generated.files, vec![dir.join("zp.packed.wgsl")]);
+/// let wgsl = std::fs::read_to_string(&generated.files[0])?;
+/// assert!(wgsl.contains("@group(1) @binding(0) var<storage, read> zp_samples: array<f32>;"));
+/// # std::fs::remove_dir_all(&dir)?;
+/// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 ///
 /// Defaults: [`Layout::Embedded`], [`Variant::Fast`], bind group 0, first

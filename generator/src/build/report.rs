@@ -5,12 +5,22 @@ use crate::derive::arrangement::KnotFamily;
 use crate::derive::Derivation;
 use crate::math::exact::Q;
 use crate::math::linalg::{IVec, QVec};
+use crate::validate::Binding;
 use serde::Serialize;
 use std::fmt::Write;
+
+/// The version of the JSON layout of [`Report`]: raise it whenever a key is
+/// added, removed, renamed or changes meaning, so that readers of the
+/// checked-in reports can tell (a test pins the keys to this number).
+///
+/// 2: `schema_version` itself and a `bindings` table per shader module.
+pub const REPORT_SCHEMA_VERSION: u32 = 2;
 
 /// Everything `inspect` shows about one filter and `generate` writes next to its shaders.
 #[derive(Serialize)]
 pub struct Report {
+    /// The JSON layout's version, [`REPORT_SCHEMA_VERSION`].
+    pub schema_version: u32,
     /// Filter name (the prefix of the WGSL identifiers).
     pub name: String,
     /// Free-text description from the spec.
@@ -60,9 +70,9 @@ pub struct Report {
     pub cells: Vec<CellReport>,
     /// How the fast shaders locate points, and their fetch order.
     pub evaluation: EvaluationReport,
-    /// Counts of the emitted shaders (filled by `generate`).
+    /// Counts and bindings of the emitted shaders (filled by `generate`).
     #[serde(skip_serializing_if = "Vec::is_empty")]
-    pub shaders: Vec<crate::emit::EmitStats>,
+    pub shaders: Vec<ShaderReport>,
     /// Hardware-filtered fetches, where the filter allows them.
     pub linear_fetch: Option<LinearFetchReport>,
     /// Hardware-filtered fetches on the packed layout (pairs per coset).
@@ -76,9 +86,69 @@ pub struct Report {
     pub derivation_seconds: Option<f64>,
 }
 
+/// One emitted module in the report: its counts and the bindings it declares.
+#[derive(Clone, Debug, Serialize)]
+pub struct ShaderReport {
+    /// The emitter's counts (their keys sit at the top level of the JSON object).
+    #[serde(flatten)]
+    pub stats: crate::emit::EmitStats,
+    /// Every binding the module declares, read from the validated module
+    /// (see [`module_bindings`]).
+    pub bindings: Vec<Binding>,
+}
+
+/// The bindings of an emitted module of filter `filter`, read from its
+/// validated naga module, each with the hand-written purpose of its name
+/// ([`crate::emit::binding_purpose`]).
+///
+/// # Errors
+///
+/// [`crate::Error::Unsupported`] naming the module when the source does not
+/// validate (an emitter bug: every emitted module must validate).
+pub fn module_bindings(filter: &str, file_name: &str, source: &str) -> crate::Result<Vec<Binding>> {
+    let mut bindings = crate::validate::bindings_of_wgsl(source).map_err(|message| crate::Error::Unsupported {
+        origin: format!("module {file_name}"),
+        message: format!("the emitted WGSL does not validate: {message}"),
+    })?;
+    for b in &mut bindings {
+        b.purpose = crate::emit::binding_purpose(filter, &b.name).map(str::to_string);
+    }
+    Ok(bindings)
+}
+
 /// Reports list every piece's BB and power coefficients up to this many
 /// polynomials; beyond it the JSON would run to hundreds of megabytes.
 pub const DETAIL_LIMIT_POLYNOMIALS: usize = 4096;
+
+/// What [`Report::with_options`] lists.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ReportOptions {
+    /// List every piece's BB and power coefficients whatever the size (a
+    /// caller that wants them all, e.g. for an offline check, accepts the
+    /// size of the JSON). Off by default.
+    pub all_coefficients: bool,
+    /// Without `all_coefficients`, coefficients are listed up to this many
+    /// polynomials (default [`DETAIL_LIMIT_POLYNOMIALS`]).
+    pub detail_limit: usize,
+}
+
+impl Default for ReportOptions {
+    fn default() -> Self {
+        ReportOptions { all_coefficients: false, detail_limit: DETAIL_LIMIT_POLYNOMIALS }
+    }
+}
+
+impl ReportOptions {
+    /// Every coefficient listed, however many polynomials.
+    pub fn all_coefficients() -> Self {
+        ReportOptions { all_coefficients: true, ..ReportOptions::default() }
+    }
+
+    /// Whether a derivation with `polynomials` polynomials has its coefficients listed.
+    pub fn lists_coefficients(&self, polynomials: usize) -> bool {
+        self.all_coefficients || polynomials <= self.detail_limit
+    }
+}
 
 /// How big the derivation was expected to be and was.
 #[derive(Clone, Debug, Serialize)]
@@ -87,7 +157,7 @@ pub struct WorkReport {
     pub estimate: crate::derive::Estimate,
     /// Reference pieces x their stencils, as derived.
     pub polynomials: usize,
-    /// Whether BB and power coefficients are listed (see [`DETAIL_LIMIT_POLYNOMIALS`]).
+    /// Whether BB and power coefficients are listed (see [`ReportOptions`]).
     pub coefficients_listed: bool,
 }
 
@@ -290,12 +360,18 @@ pub struct CellReport {
 impl Report {
     /// Collects the report from a derivation (coefficients only up to [`DETAIL_LIMIT_POLYNOMIALS`]).
     pub fn new(d: &Derivation) -> Report {
+        Report::with_options(d, &ReportOptions::default())
+    }
+
+    /// Collects the report from a derivation, listing coefficients as `opts` says.
+    pub fn with_options(d: &Derivation, opts: &ReportOptions) -> Report {
         let f = &d.filter;
         let arr = &d.arrangement;
         let polynomials = d.polynomials();
-        let detailed = polynomials <= DETAIL_LIMIT_POLYNOMIALS;
+        let detailed = opts.lists_coefficients(polynomials);
         let plan = crate::emit::plan::Plan::new(d);
         Report {
+            schema_version: REPORT_SCHEMA_VERSION,
             name: f.name.clone(),
             description: f.description.clone(),
             dimension: f.dim(),
@@ -519,7 +595,7 @@ impl Report {
         let _ = writeln!(s, "{}", e.fetch_order.iter().map(iv).collect::<Vec<_>>().join(" → "));
         if !self.shaders.is_empty() {
             let _ = writeln!(s, "\n| layout | variant | form | fetches/eval | vector adds | ops in eval | ops in eval_grad |\n|---|---|---|---|---|---|---|");
-            for st in &self.shaders {
+            for st in self.shaders.iter().map(|sr| &sr.stats) {
                 let _ = writeln!(
                     s,
                     "| {} | {} | {} | {} | {} | {} | {} |",
@@ -533,7 +609,7 @@ impl Report {
                 );
             }
             let _ = writeln!(s, "\n(ops: operators, comparisons, selects and builtin calls in the WGSL source; the naive variant's loops are counted once. The naive variant keeps the dense form: it measures branches and lookup tables.)");
-            if let Some(st) = self.shaders.iter().find(|st| st.variant.name() == "fast") {
+            if let Some(st) = self.shaders.iter().map(|sr| &sr.stats).find(|st| st.variant.name() == "fast") {
                 let _ = writeln!(
                     s,
                     "\n### Evaluation forms\n\nThe generator emits every exact form available for this filter and keeps the cheapest by its cost model (ops in eval + ops in eval_grad; exact loads are the same for every form). Chosen: **{}**.\n\n| form | fetches | ops in eval | ops in eval_grad | cost |\n|---|---|---|---|---|",
@@ -548,6 +624,31 @@ impl Report {
                         f.ops_eval,
                         f.ops_eval_grad,
                         f.cost()
+                    );
+                }
+            }
+        }
+        if !self.shaders.is_empty() {
+            let _ = writeln!(
+                s,
+                "\n### Bindings\n\nRead from each validated module (naga). Used by: entry points, and the functions no other function calls (the module's API).\n\n| layout | variant | fetch | group | binding | name | kind | format | used by | host puts there |\n|---|---|---|---|---|---|---|---|---|---|"
+            );
+            for sr in &self.shaders {
+                for b in &sr.bindings {
+                    let used: Vec<&str> = b.entry_points.iter().chain(&b.functions).map(String::as_str).collect();
+                    let _ = writeln!(
+                        s,
+                        "| {} | {} | {} | {} | {} | `{}` | `{}` | {} | {} | {} |",
+                        sr.stats.layout.name(),
+                        sr.stats.variant.name(),
+                        sr.stats.fetch.name(),
+                        b.group,
+                        b.binding,
+                        b.name,
+                        b.kind,
+                        b.format.as_ref().map(|f| format!("`{f}`")).unwrap_or_else(|| "-".into()),
+                        if used.is_empty() { "-".to_string() } else { used.join(", ") },
+                        b.purpose.as_deref().unwrap_or("-")
                     );
                 }
             }
@@ -642,5 +743,43 @@ impl Report {
             let _ = writeln!(s, "    {} {}", iv(&w.offset), w.w);
         }
         s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::spec::catalog;
+
+    #[test]
+    fn all_coefficients_lists_them_past_the_limit() {
+        let d = Derivation::new(&catalog::get("bcc_sheared_trilinear").unwrap()).unwrap();
+        let counts = |r: &Report| -> (bool, usize, usize) {
+            (
+                r.work.coefficients_listed,
+                r.reference_pieces.iter().map(|p| p.bb.len()).sum(),
+                r.reference_pieces.iter().flat_map(|p| &p.power).map(|p| p.terms.len()).sum(),
+            )
+        };
+        let limited = ReportOptions { detail_limit: d.polynomials() - 1, ..ReportOptions::default() };
+        let (listed, bb, power) = counts(&Report::with_options(&d, &limited));
+        assert_eq!((listed, bb, power), (false, 0, 0), "over the limit nothing is listed");
+        let all = ReportOptions { all_coefficients: true, ..limited };
+        let full = Report::with_options(&d, &all);
+        let (listed, _, power) = counts(&full);
+        assert!(listed && power > 0, "all_coefficients lists them past the limit");
+        // Under the default limit this small filter lists the same coefficients.
+        assert_eq!(full.to_json(), Report::new(&d).to_json());
+        assert_eq!(ReportOptions::all_coefficients(), ReportOptions { all_coefficients: true, ..Default::default() });
+        assert!(ReportOptions::default().lists_coefficients(DETAIL_LIMIT_POLYNOMIALS));
+        assert!(!ReportOptions::default().lists_coefficients(DETAIL_LIMIT_POLYNOMIALS + 1));
+    }
+
+    #[test]
+    fn unknown_names_have_no_purpose() {
+        let b = module_bindings("zp", "x.wgsl", "@group(0) @binding(0) var<uniform> zp_other: vec4<f32>;").unwrap();
+        assert_eq!(b.len(), 1);
+        assert_eq!(b[0].purpose, None);
+        assert!(module_bindings("zp", "x.wgsl", "not wgsl").is_err());
     }
 }

@@ -5,6 +5,7 @@
 pub mod arrangement;
 pub mod bb;
 pub mod cell_count;
+pub mod cone;
 pub mod f64_tables;
 pub mod factor;
 pub mod piece_tables;

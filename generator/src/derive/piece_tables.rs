@@ -13,9 +13,9 @@
 //! the cell's interior point). Everything is checked `i128`; on overflow the
 //! caller falls back to the rational path, so the result is exact either way.
 
-use crate::derive::pieces::{ConeTerm, PpForm};
+use crate::derive::cone::ConeTerm;
 use crate::math::exact::Q;
-use crate::math::linalg::QVec;
+use crate::math::linalg::{IVec, QVec};
 use crate::math::poly::{Monomials, Poly};
 use crate::math::scaled::{integer, lcm, mul_add, ratio, small, Scaled};
 use std::sync::Arc;
@@ -56,16 +56,18 @@ struct TermTable {
 }
 
 impl PieceTables {
-    /// The tables, or `None` when some entry does not fit `i128`.
-    pub fn new(pp: &PpForm) -> Option<Arc<PieceTables>> {
-        let shifts: Vec<Vec<i128>> = pp.shifts.iter().map(|(s, _)| s.iter().map(|&x| x as i128).collect()).collect();
-        let weights = pp.shifts.iter().map(|(_, w)| integer(w)).collect::<Option<Vec<i128>>>()?;
-        let terms = pp
-            .terms
+    /// The tables of a PP-form's cone terms and merged shifts `(sigma, w_sigma)`
+    /// in dimension `dim` with pieces of degree `degree`, or `None` when some
+    /// entry does not fit `i128`. It takes the parts rather than the PP-form
+    /// because the PP-form owns the tables.
+    pub fn new(terms: &[ConeTerm], shifts: &[(IVec, Q)], dim: usize, degree: usize) -> Option<Arc<PieceTables>> {
+        let weights = shifts.iter().map(|(_, w)| integer(w)).collect::<Option<Vec<i128>>>()?;
+        let shifts: Vec<Vec<i128>> = shifts.iter().map(|(s, _)| s.iter().map(|&x| x as i128).collect()).collect();
+        let terms = terms
             .iter()
-            .map(|t| TermTable::new(t, &shifts, &weights, pp.dim, pp.degree))
+            .map(|t| TermTable::new(t, &shifts, &weights, dim, degree))
             .collect::<Option<Vec<TermTable>>>()?;
-        Some(Arc::new(PieceTables { nvars: pp.dim, degree: pp.degree, terms }))
+        Some(Arc::new(PieceTables { nvars: dim, degree, terms }))
     }
 
     /// The polynomial of `u -> phi(u + base)` on the region of phi that holds

@@ -3,6 +3,7 @@
 //! transform prod 1/(w.xi) into cone polynomials over bases of directions;
 //! M_Xi is a signed sum of shifted truncated powers.
 
+pub use crate::derive::cone::ConeTerm;
 use crate::derive::piece_tables::PieceTables;
 use crate::derive::spline::SplineFacts;
 use crate::math::exact::{binomial, factorial, Q};
@@ -10,17 +11,6 @@ use crate::math::linalg::{inverse, mat_vec_q, rank, solve, to_q, IVec, QVec};
 use crate::math::poly::{tensor_to_poly, Poly};
 use std::collections::BTreeMap;
 use std::sync::Arc;
-
-/// c * prod_{v in V} t_v^(a_v - 1) / (a_v - 1)! / |det V| on the cone t = V^-1 y >= 0.
-#[derive(Clone, Debug)]
-pub struct ConeTerm {
-    /// Rows of V^-1.
-    pub inv: Vec<QVec>,
-    /// a_v - 1 per basis vector.
-    pub powers: Vec<u32>,
-    /// c / |det V| / prod (a_v - 1)!.
-    pub coef: Q,
-}
 
 /// phi(x) = |det G| * sum_sigma w_sigma * T(x + c - sigma), T = sum of cone terms.
 #[derive(Clone, Debug)]
@@ -77,7 +67,7 @@ impl PpForm {
             scale: Q::int(lattice_det),
             tables: None,
         };
-        pp.tables = PieceTables::new(&pp);
+        pp.tables = PieceTables::new(&pp.terms, &pp.shifts, pp.dim, pp.degree);
         pp
     }
 

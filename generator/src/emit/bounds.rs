@@ -17,7 +17,7 @@ pub(crate) fn cube_bounds_fn(d: &Derivation, sh: &Shapes, name: &str) -> String 
     let zc = body.bind("zc", &format!("{}(z) + 0.5", sh.vecf));
     let frame_src = "p".to_string();
     body.line(&format!("let {frame_src} = {zc};"));
-    let frame = emit_frame(&mut body, sh, &plan_nosort, name, false);
+    let frame = emit_frame(&mut body, sh, &plan_nosort, name, &Fast);
     // Union of all fetch offsets of all candidates.
     let mut union: Vec<IVec> = Vec::new();
     for c in &plan_nosort.candidates {

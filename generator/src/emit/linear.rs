@@ -18,7 +18,7 @@
 //! buffer fetch), never a choice between textures. Clamping each texel to
 //! its slab before interpolating reproduces the exact loads' clamp-to-edge.
 
-use super::locate::{emit_candidate_choice, emit_frame, local_coords, select_by_candidate, Frame};
+use super::locate::{emit_candidate_choice, emit_frame, local_coords, select_by_candidate, Fast, Frame};
 use super::writer::{Body, Shapes, AXES};
 use crate::derive::Derivation;
 use crate::emit::plan::Plan;
@@ -245,8 +245,8 @@ fn pair_stencil(stencil: &[IVec]) -> Vec<FetchSlot> {
 /// The body of `<f>_eval` with filtered fetches (`<f>_fetch_pair`).
 pub(crate) fn emit_linear_body(d: &Derivation, plan: &Plan, lin: &LinearPlan, sh: &Shapes, name: &str) -> String {
     let mut body = Body::new();
-    let frame = emit_frame(&mut body, sh, plan, name, false);
-    let ci = emit_candidate_choice(&mut body, sh, plan, &frame, false);
+    let frame = emit_frame(&mut body, sh, plan, name, &Fast);
+    let ci = emit_candidate_choice(&mut body, sh, plan, &frame, &Fast);
     let nslots = lin.fetches(plan);
     // Per used reference: (sum, t) names per slot.
     let mut per_ref: BTreeMap<usize, Vec<(String, String)>> = BTreeMap::new();

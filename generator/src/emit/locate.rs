@@ -18,7 +18,7 @@ pub enum PieceForm {
     Ridge,
 }
 
-use super::{forms::*, naive::*, writer::*};
+use super::{forms::*, writer::*};
 use crate::derive::Derivation;
 use crate::emit::plan::{Candidate, Locate, Plan};
 use crate::math::exact::Q;
@@ -32,7 +32,106 @@ pub(crate) struct Frame {
     pub(crate) class: Option<String>,
 }
 
-pub(crate) fn emit_frame(body: &mut Body, sh: &Shapes, plan: &Plan, name: &str, naive: bool) -> Frame {
+/// How an eval body is written, step by step: the seam between the fast
+/// (branch-free) code of this module and the naive variant (`if`, loops and
+/// lookup tables, in `naive.rs`), which shares the mathematics and differs
+/// only in these steps. It is a trait rather than a flag so that the naive
+/// code lives in its own module and this one does not depend on it.
+pub(crate) trait BodyStyle {
+    /// The piece form actually written when `requested` is asked for.
+    fn piece_form(&self, requested: PieceForm) -> PieceForm;
+    /// One compare-exchange of the sorting network on `w` and the frame columns.
+    fn sort_step(&self, body: &mut Body, w: &mut String, cols: &mut [String], i: usize, j: usize);
+    /// Class `k` (with representative `rep_k`) replaces `cls`/`rep` where `hit` holds.
+    fn class_step(&self, body: &mut Body, cls: &mut String, rep: &mut String, hit: &str, k: usize, rep_k: &str);
+    /// The frame (see [`emit_frame`] for the shared part).
+    fn frame(&self, body: &mut Body, sh: &Shapes, plan: &Plan, name: &str) -> Frame;
+    /// The candidate index among several (i32 expression); `tests[i]` are
+    /// the conditions of candidate i, as `&`-joined boolean terms.
+    fn candidate_choice(&self, body: &mut Body, tests: &[String]) -> String;
+    /// The fetches of every slot: the sample names per slot.
+    fn fetches(&self, body: &mut Body, sh: &Shapes, plan: &Plan, frame: &Frame, ci: &str, name: &str) -> Vec<String>;
+    /// The coefficients (one expression per row of `weights`) of reference
+    /// piece `r` from the samples per stencil index.
+    fn coefficients(
+        &self,
+        body: &mut Body,
+        weights: &[Vec<Q>],
+        samples: &[String],
+        piece: PieceForm,
+        name: &str,
+        r: usize,
+    ) -> Vec<String>;
+}
+
+/// The fast variant: branch-free selects, unrolled fetches and coefficients.
+pub(crate) struct Fast;
+
+impl BodyStyle for Fast {
+    fn piece_form(&self, requested: PieceForm) -> PieceForm {
+        requested
+    }
+
+    fn sort_step(&self, body: &mut Body, w: &mut String, cols: &mut [String], i: usize, j: usize) {
+        let swz = swizzle_swapped(cols.len(), i, j);
+        let sw = body.bind("sw", &format!("{w}.{} < {w}.{}", AXES[i], AXES[j]));
+        let nw = body.bind("w", &format!("select({w}, {w}.{swz}, {sw})"));
+        let ci = body.bind("m", &format!("select({}, {}, {sw})", cols[i], cols[j]));
+        let cj = body.bind("m", &format!("select({}, {}, {sw})", cols[j], cols[i]));
+        *w = nw;
+        cols[i] = ci;
+        cols[j] = cj;
+    }
+
+    fn class_step(&self, body: &mut Body, cls: &mut String, rep: &mut String, hit: &str, k: usize, rep_k: &str) {
+        *cls = body.bind("cls", &format!("select({cls}, {k}, {hit})"));
+        *rep = body.bind("rep", &format!("select({rep}, {rep_k}, {hit})"));
+    }
+
+    fn frame(&self, body: &mut Body, sh: &Shapes, plan: &Plan, name: &str) -> Frame {
+        emit_frame(body, sh, plan, name, self)
+    }
+
+    fn candidate_choice(&self, body: &mut Body, tests: &[String]) -> String {
+        let mut ci = "0".to_string();
+        for (i, t) in tests.iter().enumerate().skip(1) {
+            let inside = body.bind("in", t);
+            ci = body.bind("ci", &format!("select({ci}, {i}, {inside})"));
+        }
+        ci
+    }
+
+    fn fetches(&self, body: &mut Body, sh: &Shapes, plan: &Plan, frame: &Frame, ci: &str, name: &str) -> Vec<String> {
+        emit_fetches(body, sh, plan, frame, ci, name)
+    }
+
+    fn coefficients(
+        &self,
+        body: &mut Body,
+        weights: &[Vec<Q>],
+        samples: &[String],
+        piece: PieceForm,
+        _name: &str,
+        _r: usize,
+    ) -> Vec<String> {
+        if piece == PieceForm::Dense {
+            emit_coefficients(body, weights, samples, "b")
+        } else {
+            crate::emit::cse::LinearMap::shared(weights).emit(body, samples, "b")
+        }
+    }
+}
+
+/// The swizzle of `s` axes with axes `i` and `j` exchanged (e.g. `yxz`).
+pub(crate) fn swizzle_swapped(s: usize, i: usize, j: usize) -> String {
+    let mut swz: Vec<&str> = AXES[..s].to_vec();
+    swz.swap(i, j);
+    swz.concat()
+}
+
+/// The frame, with the sorting network's compare-exchanges and the class
+/// selection written by `style`.
+pub(crate) fn emit_frame(body: &mut Body, sh: &Shapes, plan: &Plan, name: &str, style: &dyn BodyStyle) -> Frame {
     let s = sh.s;
     match plan.locate {
         Locate::Fold { sort } => {
@@ -55,25 +154,7 @@ pub(crate) fn emit_frame(body: &mut Body, sh: &Shapes, plan: &Plan, name: &str, 
                     _ => (0..s).flat_map(|i| (0..s - 1 - i).map(|j| (j, j + 1))).collect(),
                 };
                 for (i, j) in pairs {
-                    let mut swz: Vec<&str> = AXES[..s].to_vec();
-                    swz.swap(i, j);
-                    let swz: String = swz.concat();
-                    if naive {
-                        body.line(&format!("if ({w}.{} < {w}.{}) {{", AXES[i], AXES[j]));
-                        body.line(&format!("    {w} = {w}.{swz};"));
-                        body.line(&format!("    let t = {};", cols[i]));
-                        body.line(&format!("    {} = {};", cols[i], cols[j]));
-                        body.line(&format!("    {} = t;", cols[j]));
-                        body.line("}");
-                    } else {
-                        let sw = body.bind("sw", &format!("{w}.{} < {w}.{}", AXES[i], AXES[j]));
-                        let nw = body.bind("w", &format!("select({w}, {w}.{swz}, {sw})"));
-                        let ci = body.bind("m", &format!("select({}, {}, {sw})", cols[i], cols[j]));
-                        let cj = body.bind("m", &format!("select({}, {}, {sw})", cols[j], cols[i]));
-                        w = nw;
-                        cols[i] = ci;
-                        cols[j] = cj;
-                    }
+                    style.sort_step(body, &mut w, &mut cols, i, j);
                 }
             }
             Frame { base, cols, w, class: None }
@@ -95,12 +176,7 @@ pub(crate) fn emit_frame(body: &mut Body, sh: &Shapes, plan: &Plan, name: &str, 
             let mut rep = body.bind("rep", &sh.ivec(&plan.classes[0]));
             for (k, key) in plan.class_keys.iter().enumerate().skip(1) {
                 let hit = body.bind("hit", &format!("all({r} == {})", sh.ivec(key)));
-                if naive {
-                    body.line(&format!("if ({hit}) {{ {cls} = {k}; {rep} = {}; }}", sh.ivec(&plan.classes[k])));
-                } else {
-                    cls = body.bind("cls", &format!("select({cls}, {k}, {hit})"));
-                    rep = body.bind("rep", &format!("select({rep}, {}, {hit})", sh.ivec(&plan.classes[k])));
-                }
+                style.class_step(body, &mut cls, &mut rep, &hit, k, &sh.ivec(&plan.classes[k]));
             }
             let base = body.bind("base", &format!("{z} - {rep}"));
             let w = body.bind("w", &format!("p - {}({base})", sh.vecf));
@@ -116,8 +192,15 @@ pub(crate) fn emit_frame(body: &mut Body, sh: &Shapes, plan: &Plan, name: &str, 
     }
 }
 
-/// Index of the chosen candidate (an i32 expression; "0" when only one).
-pub(crate) fn emit_candidate_choice(body: &mut Body, sh: &Shapes, plan: &Plan, frame: &Frame, naive: bool) -> String {
+/// Index of the chosen candidate (an i32 expression; "0" when only one),
+/// written by `style`.
+pub(crate) fn emit_candidate_choice(
+    body: &mut Body,
+    sh: &Shapes,
+    plan: &Plan,
+    frame: &Frame,
+    style: &dyn BodyStyle,
+) -> String {
     if plan.candidates.len() == 1 && frame.class.is_none() {
         return "0".into();
     }
@@ -132,19 +215,8 @@ pub(crate) fn emit_candidate_choice(body: &mut Body, sh: &Shapes, plan: &Plan, f
             t.join(" & ")
         }
     };
-    if naive {
-        body.line("var ci = 0;");
-        for (i, c) in plan.candidates.iter().enumerate().skip(1) {
-            body.line(&format!("if ({}) {{ ci = {i}; }}", tests(c).replace(" & ", " && ")));
-        }
-        return "ci".into();
-    }
-    let mut ci = "0".to_string();
-    for (i, c) in plan.candidates.iter().enumerate().skip(1) {
-        let inside = body.bind("in", &tests(c));
-        ci = body.bind("ci", &format!("select({ci}, {i}, {inside})"));
-    }
-    ci
+    let tests: Vec<String> = plan.candidates.iter().map(tests).collect();
+    style.candidate_choice(body, &tests)
 }
 
 /// select chain over candidates: values[i] when ci == i.
@@ -260,18 +332,14 @@ pub(crate) fn emit_eval_body(
     sh: &Shapes,
     name: &str,
     grad: bool,
-    naive: bool,
+    style: &dyn BodyStyle,
     piece: PieceForm,
 ) -> String {
+    let piece = style.piece_form(piece);
     let mut body = Body::new();
-    let frame =
-        if naive { emit_frame_naive(&mut body, sh, plan, name) } else { emit_frame(&mut body, sh, plan, name, false) };
-    let ci = emit_candidate_choice(&mut body, sh, plan, &frame, naive);
-    let samples_by_slot = if naive {
-        emit_fetches_naive(&mut body, sh, plan, &frame, &ci, name)
-    } else {
-        emit_fetches(&mut body, sh, plan, &frame, &ci, name)
-    };
+    let frame = style.frame(&mut body, sh, plan, name);
+    let ci = emit_candidate_choice(&mut body, sh, plan, &frame, style);
+    let samples_by_slot = style.fetches(&mut body, sh, plan, &frame, &ci, name);
     let mut values: Vec<PieceValue> = Vec::new();
     for r in plan.used_references() {
         let forms = d.forms(r);
@@ -279,7 +347,7 @@ pub(crate) fn emit_eval_body(
             (Some(bb), PieceForm::Dense | PieceForm::Bb) => Form::Bb(bb),
             _ => Form::Power(&forms.polys),
         };
-        let ridge = (piece == PieceForm::Ridge && !naive).then(|| d.ridge(r));
+        let ridge = (piece == PieceForm::Ridge).then(|| d.ridge(r));
         // The ridge form writes its sample combinations with its evaluation (below).
         let (indices, weights) = match ridge {
             Some(_) => (vec![], vec![]),
@@ -293,13 +361,7 @@ pub(crate) fn emit_eval_body(
                 per_k[*k] = samples_by_slot[slot].clone();
             }
         }
-        let coeffs = if naive {
-            emit_coefficients_naive(&mut body, &weights, &per_k, &format!("{name}_W{r}"))
-        } else if piece == PieceForm::Dense {
-            emit_coefficients(&mut body, &weights, &per_k, "b")
-        } else {
-            crate::emit::cse::LinearMap::shared(&weights).emit(&mut body, &per_k, "b")
-        };
+        let coeffs = style.coefficients(&mut body, &weights, &per_k, piece, name, r);
         let cands: Vec<(usize, &Candidate)> =
             plan.candidates.iter().enumerate().filter(|(_, c)| c.reference == r).collect();
         let us: Vec<String> = plan
@@ -341,7 +403,7 @@ pub(crate) fn emit_eval_body(
                 body.next = b.next;
                 (v, g)
             }
-            (Form::Power(_), PieceForm::Power | PieceForm::Bb | PieceForm::Ridge) if !naive => {
+            (Form::Power(_), PieceForm::Power | PieceForm::Bb | PieceForm::Ridge) => {
                 let vars: Vec<String> = (0..sh.s).map(|i| format!("{u}.{}", AXES[i])).collect();
                 let monomials: Vec<(Vec<u32>, String)> = indices.iter().cloned().zip(coeffs.iter().cloned()).collect();
                 let (v, g) = crate::emit::horner::emit_horner(&mut body, &monomials, &vars, grad);

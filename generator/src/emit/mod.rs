@@ -25,8 +25,8 @@ pub mod writer;
 use bounds::cube_bounds_fn;
 use coset::helpers;
 pub use coset::{coset_of, coset_pivots};
-use locate::{emit_eval_body, PieceForm};
-use naive::naive_tables;
+use locate::{emit_eval_body, Fast, PieceForm};
+use naive::{naive_tables, Naive};
 pub use writer::{count_ops, lit};
 use writer::{Shapes, AXES};
 
@@ -256,6 +256,24 @@ pub struct EmitStats {
     pub fetch: FetchMode,
 }
 
+/// What the host must bind to the variable `name` of a module emitted for
+/// filter `filter`, in one sentence; `None` for a name the emitter does not
+/// write. Hand-written because the meaning of the bytes is not in the WGSL;
+/// the numbers (group, binding, type) are read from the module itself
+/// ([`crate::validate::bindings_of_wgsl`]).
+pub fn binding_purpose(filter: &str, name: &str) -> Option<&'static str> {
+    Some(match name.strip_prefix(filter)?.strip_prefix('_')? {
+        "volume" => "The samples as an r32float texture: lattice point j at texel j (the other texels are unused).",
+        "samples" => "The samples packed per coset of 2Z^s: lattice point j at word coset(j) * grid.size.w + the row-major index of j >> 1 in the coset grid.",
+        "grid" => "The coset grid: its size (x, y, z or x, y) and, in w, the words per coset.",
+        "linear" => "A linear, clamp-to-edge sampler for the hardware-filtered fetches.",
+        "cosets" => "The packed samples again as one filterable r32float texture, the cosets stacked as slabs along the last axis (slab c = coset c).",
+        "out" => "The kernels' output buffer: one prefiltered value per point of the job's box (row-major), or a (min, max) pair per block for minmax.",
+        "job" => "The kernel's job: the box's lattice-coordinate origin and extent, and the block edge B in extent.w for minmax.",
+        _ => return None,
+    })
+}
+
 /// One emitted WGSL module: its file name, source and counts.
 #[derive(Clone, Debug)]
 pub struct Emitted {
@@ -311,8 +329,8 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
     }
     let (form, forms, eval_body, grad_body) = if naive {
         // The naive variant measures branches and tables, on the dense form.
-        let e = emit_eval_body(d, &plan, &sh, name, false, true, PieceForm::Dense);
-        let g = emit_eval_body(d, &plan, &sh, name, true, true, PieceForm::Dense);
+        let e = emit_eval_body(d, &plan, &sh, name, false, &Naive, PieceForm::Dense);
+        let g = emit_eval_body(d, &plan, &sh, name, true, &Naive, PieceForm::Dense);
         let cost = FormCost {
             form: EvalForm::Dense,
             fetches: plan.fetches(),
@@ -555,8 +573,8 @@ fn choose_form(
         (EvalForm::Dense, PieceForm::Dense),
     ] {
         if wanted(f) && !skip_plan_forms && (f != EvalForm::Ridge || ridge_ok) {
-            let e = emit_eval_body(d, plan, sh, name, false, false, piece);
-            let g = emit_eval_body(d, plan, sh, name, true, false, piece);
+            let e = emit_eval_body(d, plan, sh, name, false, &Fast, piece);
+            let g = emit_eval_body(d, plan, sh, name, true, &Fast, piece);
             bodies.push((f, plan.fetches(), e, g));
         }
     }

@@ -7,13 +7,67 @@ use crate::emit::plan::{Locate, Plan};
 use crate::math::exact::Q;
 use std::fmt::Write;
 
+/// The naive variant's [`BodyStyle`]: `if` on mutable variables, fetches in
+/// a loop over an offset table, coefficients in a loop over a weight table.
+/// It always writes the dense form: it measures branches and lookup tables,
+/// not the choice of form.
+pub(crate) struct Naive;
+
+impl BodyStyle for Naive {
+    fn piece_form(&self, _requested: PieceForm) -> PieceForm {
+        PieceForm::Dense
+    }
+
+    fn sort_step(&self, body: &mut Body, w: &mut String, cols: &mut [String], i: usize, j: usize) {
+        let swz = swizzle_swapped(cols.len(), i, j);
+        body.line(&format!("if ({w}.{} < {w}.{}) {{", AXES[i], AXES[j]));
+        body.line(&format!("    {w} = {w}.{swz};"));
+        body.line(&format!("    let t = {};", cols[i]));
+        body.line(&format!("    {} = {};", cols[i], cols[j]));
+        body.line(&format!("    {} = t;", cols[j]));
+        body.line("}");
+    }
+
+    fn class_step(&self, body: &mut Body, cls: &mut String, rep: &mut String, hit: &str, k: usize, rep_k: &str) {
+        body.line(&format!("if ({hit}) {{ {cls} = {k}; {rep} = {rep_k}; }}"));
+    }
+
+    fn frame(&self, body: &mut Body, sh: &Shapes, plan: &Plan, name: &str) -> Frame {
+        emit_frame_naive(body, sh, plan, name)
+    }
+
+    fn candidate_choice(&self, body: &mut Body, tests: &[String]) -> String {
+        body.line("var ci = 0;");
+        for (i, t) in tests.iter().enumerate().skip(1) {
+            body.line(&format!("if ({}) {{ ci = {i}; }}", t.replace(" & ", " && ")));
+        }
+        "ci".into()
+    }
+
+    fn fetches(&self, body: &mut Body, sh: &Shapes, plan: &Plan, frame: &Frame, ci: &str, name: &str) -> Vec<String> {
+        emit_fetches_naive(body, sh, plan, frame, ci, name)
+    }
+
+    fn coefficients(
+        &self,
+        body: &mut Body,
+        weights: &[Vec<Q>],
+        samples: &[String],
+        _piece: PieceForm,
+        name: &str,
+        r: usize,
+    ) -> Vec<String> {
+        emit_coefficients_naive(body, weights, samples, &format!("{name}_W{r}"))
+    }
+}
+
 /// Naive frame: same folding, but sorting with `if` on mutable variables.
 pub(crate) fn emit_frame_naive(body: &mut Body, sh: &Shapes, plan: &Plan, name: &str) -> Frame {
     match plan.locate {
         Locate::Fold { .. } => {
             // Declare mutable copies so the sorting can swap in place.
             let mut f = Body { text: String::new(), next: body.next, indent: body.indent };
-            let fr = emit_frame(&mut f, sh, plan, name, true);
+            let fr = emit_frame(&mut f, sh, plan, name, &Naive);
             body.next = f.next;
             // Turn the lets that the `if` swaps into vars.
             let mut text = f.text;
@@ -25,7 +79,7 @@ pub(crate) fn emit_frame_naive(body: &mut Body, sh: &Shapes, plan: &Plan, name: 
         }
         Locate::Generic => {
             let mut f = Body { text: String::new(), next: body.next, indent: body.indent };
-            let fr = emit_frame(&mut f, sh, plan, name, true);
+            let fr = emit_frame(&mut f, sh, plan, name, &Naive);
             body.next = f.next;
             let mut text = f.text;
             if let Some(c) = &fr.class {

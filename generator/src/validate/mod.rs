@@ -21,6 +21,9 @@
 //!   `Access` / `AccessIndex` chain rooted at a global in the storage address space.
 //!   Loads through pointer-typed function arguments are not traced back to a global.
 
+pub mod bindings;
+
+pub use bindings::{bindings_of_wgsl, Binding};
 use naga::valid::{Capabilities, FunctionInfo, ModuleInfo, ValidationFlags, Validator};
 use naga::{AddressSpace, Block, Expression, Function, Handle, Module, Statement, TypeInner};
 
