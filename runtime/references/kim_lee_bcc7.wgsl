@@ -5,9 +5,9 @@
 // reflection, permutation, 30 axis-aligned fetches) and M. Kim's slides "GPU
 // isosurface ray casting of BCC and FCC data with box splines" (the same GLSL
 // and the "Simplified Symbolic Formula" for the reference tetrahedron
-// 1 >= x >= y >= z >= 0). In this repository: /work/shared/seeds/
-// 000_c079bf81e3a39cbe.txt (paper, Figure 7) and 001_6ff51d024a1ae152.txt
-// (slides, "GLSL Code" and "Simplified Symbolic Formula").
+// 1 >= x >= y >= z >= 0). Both are cited in
+// docs/BOX_SPLINES.md §6 (paper, Figure 7; slides, "GLSL Code" and
+// "Simplified Symbolic Formula").
 //
 // Port: the GLSL statements in their published order (same locate, same fetch
 // order with one vector add per fetch, same formula grouping), written in WGSL:

@@ -6,8 +6,8 @@
 // the view) and section 3.2 (bilinear plus spatial interpolation: the
 // bilinear values S_i, S_i+1 of the two planes around the point, then
 // S_alpha = (1 - alpha) S_i + alpha S_i+1, the paper's equation (1) with
-// alpha measured in plane spacings so that constants are reproduced). In
-// this repository: /work/shared/seeds/003_7535ac04626d866d.txt.
+// alpha measured in plane spacings so that constants are reproduced). Cited in
+// docs/BOX_SPLINES.md §6.
 //
 // Neither is a box spline of the catalog: bilinear is discontinuous between
 // planes, and bilinear plus spatial is the tensor product hat(u/2) hat(v/2)

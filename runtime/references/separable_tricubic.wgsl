@@ -4,7 +4,7 @@
 // filter, as in C. Sigg and M. Hadwiger, "Fast Third-Order Texture Filtering",
 // GPU Gems 2, ch. 20 (2005), eq. 20.1-20.2 (w0..w3 of the fractional
 // position), here applied with 64 exact texel loads instead of 8 filtered
-// fetches. Not in /work/shared/seeds (a textbook formula; the catalog's
+// fetches. A textbook formula ( the catalog's
 // `cc_tricubic` cites the same chapter).
 //
 // Coordinates: s(p) = sum_j c_j B(p - j) with B the centred cubic B-spline

@@ -6,7 +6,7 @@
 // weights w0..w3 collapse into two linear fetches with weights
 // g0 = w0 + w1, g1 = w2 + w3 at offsets h0 = w1 / g0 - 1, h1 = w3 / g1 + 1
 // from the sample i = floor(p); the tensor product gives 8 trilinear fetches.
-// Not in /work/shared/seeds (a textbook method; the catalog's `cc_tricubic`
+// A textbook method ( the catalog's `cc_tricubic`
 // cites the same chapter).
 //
 // Coordinates: s(p) = sum_j c_j B(p - j), B the centred cubic B-spline, p in

@@ -1,4 +1,4 @@
-//! Factorisation of tensor-product box splines (EVALUATION_FORMS.md §3).
+//! Factorisation of tensor-product box splines (docs/EVALUATION_FORMS.md §3).
 //!
 //! When every direction is parallel to a coordinate axis, the box spline is
 //! a product of one-dimensional box splines, one per axis: for n_i copies of

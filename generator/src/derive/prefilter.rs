@@ -1,4 +1,4 @@
-//! The quasi-interpolation prefilter (BOX_SPLINES.md §3 step 11).
+//! The quasi-interpolation prefilter (docs/BOX_SPLINES.md §3 step 11).
 //!
 //! With phi the centred box spline on L, the spline s = sum_j c_j phi(. - j)
 //! with coefficients c = q * f (discrete convolution on L) reproduces every

@@ -1,4 +1,4 @@
-//! The linear-form (ridge) form of a reference piece (EVALUATION_FORMS.md §3):
+//! The linear-form (ridge) form of a reference piece (docs/EVALUATION_FORMS.md §3):
 //! the truncated-power derivation writes every cone polynomial as a product
 //! of powers of knot-plane linear forms, t_v = inv_v . y. Kept unexpanded and
 //! summed over the stencil, a piece is

@@ -1,4 +1,4 @@
-//! Stencils (BOX_SPLINES.md §3.6): the lattice points whose shifted support
+//! Stencils (docs/BOX_SPLINES.md §3.6): the lattice points whose shifted support
 //! meets a cell, found by the zonotope's knot-plane half-widths.
 
 use crate::derive::spline::SplineFacts;

@@ -1,4 +1,4 @@
-//! Shared subexpressions of a constant linear map (EVALUATION_FORMS.md §3):
+//! Shared subexpressions of a constant linear map (docs/EVALUATION_FORMS.md §3):
 //! the coefficients of a piece are exact rational combinations of the
 //! fetched samples, y_i = sum_k w_ik x_k, and neighbouring coefficients share
 //! most of their sums and differences.

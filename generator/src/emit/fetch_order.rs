@@ -1,4 +1,4 @@
-//! Axis-aligned fetch order (BOX_SPLINES.md §3.10): order the stencil so
+//! Axis-aligned fetch order (docs/BOX_SPLINES.md §3.10): order the stencil so
 //! consecutive offsets differ in as few coordinates as possible; each
 //! non-zero coordinate of a difference is one vector add of a pre-scaled
 //! column of the frame matrix.

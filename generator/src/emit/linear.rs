@@ -1,5 +1,5 @@
 //! Hardware-filtered (linear) fetches for the plan-based forms, on the
-//! packed layout (EVALUATION_FORMS.md §4).
+//! packed layout (docs/EVALUATION_FORMS.md §4).
 //!
 //! Every weight of s(x) = sum_j c_j phi(x - j) is a value of the box spline,
 //! so it is >= 0 (a box spline is the volume of a slice of a cube). Two

@@ -1,6 +1,6 @@
 //! The evaluation plan: how a shader finds, from a point x, the reference
 //! piece, the map g and the fetch positions, with arithmetic and `select`
-//! only (BOX_SPLINES.md §3.8, §3.10). Plain data that `emit` turns into WGSL
+//! only (docs/BOX_SPLINES.md §3.8, §3.10). Plain data that `emit` turns into WGSL
 //! and that [`Plan::eval_f64`] mirrors on the CPU, so the plan is tested
 //! against the exact evaluator before any GPU runs it.
 //!

@@ -1,5 +1,5 @@
 //! An independent box-spline evaluator, used as a test oracle for the
-//! piecewise-polynomial derivation: de Boor's recurrence (BOX_SPLINES.md §3
+//! piecewise-polynomial derivation: de Boor's recurrence (docs/BOX_SPLINES.md §3
 //! step 5) in exact rationals, memoised.
 //!
 //! It deliberately shares no code with the rest of the generator except

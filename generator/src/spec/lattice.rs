@@ -24,7 +24,7 @@ pub const BUILTIN_LATTICES: &[&str] = &["cc", "bcc", "fcc", "square", "quincunx"
 pub const MAX_GENERATOR_ENTRY: i64 = 64;
 
 impl Lattice {
-    /// A built-in lattice by name (see BOX_SPLINES.md §1).
+    /// A built-in lattice by name (see docs/BOX_SPLINES.md §1).
     ///
     /// # Errors
     ///

@@ -1,4 +1,4 @@
-//! WGSL validation and the static branch-free / table-free proof (BOX_SPLINES.md §4).
+//! WGSL validation and the static branch-free / table-free proof (docs/BOX_SPLINES.md §4).
 //!
 //! [`validate_wgsl`] parses a module with naga's WGSL front end, runs naga's validator
 //! (all checks, default capabilities) and walks the IR of every function and entry point,

@@ -4,7 +4,7 @@
 //! and shared input checks), `nifti.rs` and `raw.rs` (file formats),
 //! `synthetic.rs` (the Marschner-Lobb test signal), `convert.rs` (lattice
 //! (cc/bcc/fcc) sample sets from Cartesian volumes) and `packing.rs` (the
-//! coset-packed storage layout) (BOX_SPLINES.md §1, §5).
+//! coset-packed storage layout) (docs/BOX_SPLINES.md §1, §5).
 //!
 //! Nothing here panics on bad input: files, specs and hand-built structs with
 //! inconsistent fields all come back as [`VolumeError`]s (or, for the

@@ -5,7 +5,7 @@ use super::{LatticeVolume, VolumeError};
 use boxforge::spec::lattice::Lattice;
 use std::f64::consts::PI;
 
-/// Marschner-Lobb parameters (BOX_SPLINES.md §5).
+/// Marschner-Lobb parameters (docs/BOX_SPLINES.md §5).
 const ML_FM: f64 = 6.0;
 const ML_ALPHA: f64 = 0.25;
 

@@ -31,7 +31,7 @@ pub(super) fn mni_path() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/mni152_t1_1mm.nii.gz")
 }
 
-/// Independent membership rules of BOX_SPLINES.md §1.
+/// Independent membership rules of docs/BOX_SPLINES.md §1.
 pub(super) fn member(name: &str, j: [usize; 3]) -> bool {
     match name {
         "cc" => true,

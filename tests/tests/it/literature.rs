@@ -1,4 +1,4 @@
-//! The numbers the literature states (BOX_SPLINES.md §2) come out of the
+//! The numbers the literature states (docs/BOX_SPLINES.md §2) come out of the
 //! derivation from the direction matrix alone. These are checks, never inputs.
 
 use boxforge_tests::derive;

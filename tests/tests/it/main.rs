@@ -1,6 +1,7 @@
 //! Cross-crate integration tests in one binary.
 
 mod fuzz_corpus;
+mod import_cycles;
 mod literature;
 mod mattausch;
 mod oracle_agreement;

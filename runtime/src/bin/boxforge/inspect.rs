@@ -1,7 +1,7 @@
 //! `boxforge inspect`: derive filters and print their reports.
 
 use crate::common::{derive_all, filter_names, Failure};
-use boxforge::build::report::Report;
+use boxforge::build::report::{Report, ReportOptions};
 use boxforge::spec;
 
 #[derive(clap::Args)]
@@ -18,14 +18,19 @@ pub struct InspectArgs {
     /// the same spec gives the same bytes; the text report always has it).
     #[arg(long, requires = "json")]
     timings: bool,
+    /// List every piece's coefficients, however many (by default they stop
+    /// past 4,096 polynomials and `work.coefficients_listed` is false).
+    #[arg(long)]
+    all_coefficients: bool,
 }
 
 pub fn run(a: InspectArgs) -> Result<(), Failure> {
-    let InspectArgs { filters, all, json, timings } = a;
+    let InspectArgs { filters, all, json, timings, all_coefficients } = a;
+    let options = ReportOptions { all_coefficients, ..ReportOptions::default() };
     let names = filter_names(filters, all)?;
     let resolved = names.iter().map(|n| spec::resolve(n)).collect::<Result<Vec<_>, _>>()?;
     let reports = derive_all(&resolved, |d, seconds| {
-        let mut r = Report::new(&d);
+        let mut r = Report::with_options(&d, &options);
         r.derivation_seconds = (!json || timings).then_some(seconds);
         r
     })?;
