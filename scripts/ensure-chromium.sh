@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Makes sure Chromium is installed for the browser viewer's test
-# (runtime/tests/web.rs drives it headless over the DevTools protocol).
+# (runtime/tests/it/web.rs drives it headless over the DevTools protocol).
 # Installs it with apt when running as root; otherwise prints the exact
 # command and fails. Set BOXFORGE_CHROMIUM to use another Chromium binary.
 find_chromium() {

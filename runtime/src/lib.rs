@@ -10,7 +10,7 @@
 //!   PERM cache, projected tetrahedra and the literature's hand-written schemes.
 //! * [`verify`], [`prefilter`]: point evaluation against the exact evaluator,
 //!   and the quasi-interpolation prefilter on the device.
-//! * [`bench`], [`pictures`], [`web`]: what the `boxforge` CLI measures,
+//! * [`bench`](mod@bench), `pictures`, `web` (features): what the `boxforge` CLI measures,
 //!   draws and serves.
 
 pub mod bench;

@@ -167,9 +167,9 @@ pub fn check_output_dir(dir: &std::path::Path, flag: &str) -> Result<(), String>
 pub fn check_render_mode(mode: &str, tf: Option<&str>, no_preintegration: bool) -> Result<Option<String>, String> {
     match (mode, tf) {
         ("dvr", Some(tf)) => Ok(Some(tf.to_string())),
-        ("dvr", None) => {
-            Err("--mode dvr needs a transfer function: --tf mni-tissue, --tf marschner-lobb or --tf FILE.json".into())
-        }
+        // No --tf: the default ramp over the data's range (chosen once the
+        // volume is loaded).
+        ("dvr", None) => Ok(Some(String::new())),
         (_, Some(tf)) => Err(format!("--tf {tf}: a transfer function is for --mode dvr; add --mode dvr")),
         _ if no_preintegration => Err("--no-preintegration is for --mode dvr; add --mode dvr --tf ...".into()),
         _ => Ok(None),

@@ -134,6 +134,34 @@ impl LatticeVolume {
     }
 }
 
+impl Volume {
+    /// The volume box-averaged over `f`^3 blocks (a partial last block
+    /// averages what it has): the MNI head at 2 or 4 mm for the bench and
+    /// the browser viewer.
+    pub fn downsample(&self, f: usize) -> Volume {
+        let f = f.max(1);
+        let dims = self.dims.map(|n| n.div_ceil(f));
+        let mut data = Vec::with_capacity(dims.iter().product());
+        for z in 0..dims[2] {
+            for y in 0..dims[1] {
+                for x in 0..dims[0] {
+                    let (mut sum, mut n) = (0.0f64, 0usize);
+                    for k in z * f..((z + 1) * f).min(self.dims[2]) {
+                        for j in y * f..((y + 1) * f).min(self.dims[1]) {
+                            for i in x * f..((x + 1) * f).min(self.dims[0]) {
+                                sum += self.data[i + self.dims[0] * (j + self.dims[1] * k)] as f64;
+                                n += 1;
+                            }
+                        }
+                    }
+                    data.push((sum / n as f64) as f32);
+                }
+            }
+        }
+        Volume { dims, data }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -204,33 +232,5 @@ mod tests {
         }
         let e = LatticeVolume::resample(&lattice("fcc"), &vol, [4, 4, 4], f64::NAN).unwrap_err();
         assert!(matches!(e, VolumeError::BadScale { .. }), "{e}");
-    }
-}
-
-impl Volume {
-    /// The volume box-averaged over `f`^3 blocks (a partial last block
-    /// averages what it has): the MNI head at 2 or 4 mm for the bench and
-    /// the browser viewer.
-    pub fn downsample(&self, f: usize) -> Volume {
-        let f = f.max(1);
-        let dims = self.dims.map(|n| n.div_ceil(f));
-        let mut data = Vec::with_capacity(dims.iter().product());
-        for z in 0..dims[2] {
-            for y in 0..dims[1] {
-                for x in 0..dims[0] {
-                    let (mut sum, mut n) = (0.0f64, 0usize);
-                    for k in z * f..((z + 1) * f).min(self.dims[2]) {
-                        for j in y * f..((y + 1) * f).min(self.dims[1]) {
-                            for i in x * f..((x + 1) * f).min(self.dims[0]) {
-                                sum += self.data[i + self.dims[0] * (j + self.dims[1] * k)] as f64;
-                                n += 1;
-                            }
-                        }
-                    }
-                    data.push((sum / n as f64) as f32);
-                }
-            }
-        }
-        Volume { dims, data }
     }
 }

@@ -44,8 +44,8 @@ fn references_validate_with_naga_and_count_their_work() {
 fn references_agree_with_the_generated_eval_on_the_device() {
     let gpu = crate::common::gpu();
     for r in references::builtin() {
-        let row = bench::compare_reference(&gpu, &r, 3000, 2).unwrap();
-        if references::uses_sampler(&r.source) && !bench::can_filter_f32(&gpu) {
+        let row = bench::compare_reference(gpu, &r, 3000, 2).unwrap();
+        if references::uses_sampler(&r.source) && !bench::can_filter_f32(gpu) {
             assert!(row.note.as_deref().unwrap_or("").contains("FLOAT32_FILTERABLE"), "{row:?}");
             continue;
         }
@@ -62,7 +62,7 @@ fn references_agree_with_the_generated_eval_on_the_device() {
     for (from, to) in [("* (1.0 / 384.0)", "* (1.0 / 383.0)"), ("* (1.0 / 384.0)", "* 1.0")] {
         assert!(kim.source.contains(from));
         let wrong = references::Reference { source: kim.source.replace(from, to), ..kim.clone() };
-        let row = bench::compare_reference(&gpu, &wrong, 3000, 2).unwrap();
+        let row = bench::compare_reference(gpu, &wrong, 3000, 2).unwrap();
         assert!(!row.agrees && row.ratio.is_none(), "{to}: {row:?}");
         assert!(row.note.as_deref().unwrap().contains("INVALID"), "{row:?}");
     }
@@ -72,6 +72,6 @@ fn references_agree_with_the_generated_eval_on_the_device() {
         source: sep.source.replace("let i = floor(p);", "let i = floor(p + 0.5);"),
         ..sep.clone()
     };
-    let row = bench::compare_reference(&gpu, &shifted, 3000, 2).unwrap();
+    let row = bench::compare_reference(gpu, &shifted, 3000, 2).unwrap();
     assert!(!row.agrees, "{row:?}");
 }

@@ -5,7 +5,7 @@
 fn bench_smoke_runs_and_reports_every_section() {
     let gpu = crate::common::gpu();
     let o = boxforge_runtime::bench::BenchOptions::smoke();
-    let r = boxforge_runtime::bench::run(&gpu, &o, &|_| {}).unwrap();
+    let r = boxforge_runtime::bench::run(gpu, &o, &|_| {}).unwrap();
     for kind in ["eval", "eval_grad", "central_differences"] {
         assert!(r.rows.iter().any(|x| x.kind == kind && x.evals_per_s.unwrap_or(0.0) > 0.0), "{kind}");
     }
@@ -26,7 +26,7 @@ fn bench_smoke_runs_and_reports_every_section() {
 fn literature_bench_measures_every_scheme_and_judges_every_claim() {
     use boxforge_runtime::bench::literature;
     let gpu = crate::common::gpu();
-    let r = literature::run(&gpu, 2048, 1, 24, None, &|_| {}).unwrap();
+    let r = literature::run(gpu, 2048, 1, 24, None, &|_| {}).unwrap();
     assert_eq!(r.schemes.len(), 9);
     for s in &r.schemes {
         // Every scheme reconstructs Marschner-Lobb at 41^3 to a few percent (the function spans [0, 1]).
@@ -50,7 +50,7 @@ fn literature_bench_measures_every_scheme_and_judges_every_claim() {
 fn perm_bench_measures_every_filter_and_n() {
     use boxforge_runtime::bench::perm;
     let gpu = crate::common::gpu();
-    let r = perm::run(&gpu, None, 24, 1, &|_| {}).unwrap();
+    let r = perm::run(gpu, None, 24, 1, &|_| {}).unwrap();
     assert!(r.refused.is_empty(), "{:?}", r.refused);
     assert_eq!(r.rows.len(), perm::FILTERS.len() * (perm::QUANTS.len() + 2));
     for x in &r.rows {

@@ -29,7 +29,7 @@ fn gpu_dvr_matches_the_cpu_reference() {
     for (name, edge, perspective) in [("bcc7", 36, false), ("fcc6", 30, true)] {
         let d = derive(name);
         let vol = LatticeVolume::marschner_lobb(&d.filter.lattice, [edge, edge, edge]).unwrap();
-        let scene = DvrScene::new(&gpu, &d, &vol, Layout::Embedded, 4).unwrap();
+        let scene = DvrScene::new(gpu, &d, &vol, Layout::Embedded, 4).unwrap();
         for preintegrate in [true, false] {
             let o = DvrOptions { width: 48, height: 48, perspective, preintegrate, frames: 0, ..DvrOptions::default() };
             let frame = scene.render(&tf, &o).unwrap();
@@ -44,7 +44,7 @@ fn gpu_dvr_matches_the_cpu_reference() {
     let d = derive("bcc7");
     let vol = LatticeVolume::marschner_lobb(&d.filter.lattice, [36, 36, 36]).unwrap();
     let o = DvrOptions { width: 32, height: 32, frames: 0, ..DvrOptions::default() };
-    let packed = DvrScene::new(&gpu, &d, &vol, Layout::Packed, 4).unwrap().render(&tf, &o).unwrap();
+    let packed = DvrScene::new(gpu, &d, &vol, Layout::Packed, 4).unwrap().render(&tf, &o).unwrap();
     let e = rms(&packed.rgba, &cpu_render(&d, &vol, &tf, &o));
     assert!(e < 2.0, "packed: RMS {e:.2}/255 against the CPU reference");
 }
@@ -79,7 +79,7 @@ fn tf_aware_skipping_skips_the_air_of_the_head_and_keeps_the_image() {
         boxforge_runtime::scene::Conversion::Resample,
     )
     .unwrap();
-    let scene = DvrScene::new(&gpu, &d, &vol, Layout::Embedded, 4).unwrap();
+    let scene = DvrScene::new(gpu, &d, &vol, Layout::Embedded, 4).unwrap();
     let tf = TransferFunction::preset("mni-tissue");
     let o = DvrOptions {
         width: 64,
@@ -114,7 +114,7 @@ fn preintegration_removes_slab_artifacts_at_step_one() {
     let gpu = gpu();
     let d = derive("bcc7");
     let vol = LatticeVolume::marschner_lobb(&d.filter.lattice, [40, 40, 40]).unwrap();
-    let scene = DvrScene::new(&gpu, &d, &vol, Layout::Embedded, 4).unwrap();
+    let scene = DvrScene::new(gpu, &d, &vol, Layout::Embedded, 4).unwrap();
     let tf = TransferFunction::preset("marschner-lobb");
     let o = DvrOptions { width: 64, height: 64, frames: 0, ..DvrOptions::default() };
     let fine = scene.render(&tf, &DvrOptions { step: 0.1, preintegrate: false, ..o.clone() }).unwrap();
@@ -182,7 +182,7 @@ fn measure_dvr_targets() {
     let mut o = boxforge_runtime::bench::BenchOptions::full();
     o.filters = vec!["bcc7".into()];
     o.runs = 7;
-    for row in boxforge_runtime::bench::dvr::rows(&gpu, &o, o.runs, &|m| eprintln!("{m}")).unwrap() {
+    for row in boxforge_runtime::bench::dvr::rows(gpu, &o, o.runs, &|m| eprintln!("{m}")).unwrap() {
         eprintln!(
             "{} {} {}: {:.1} ms/frame {} {}",
             row.filter,
@@ -195,7 +195,7 @@ fn measure_dvr_targets() {
     }
     let d = derive("bcc7");
     let vol = LatticeVolume::marschner_lobb(&d.filter.lattice, [40, 40, 40]).unwrap();
-    let scene = DvrScene::new(&gpu, &d, &vol, Layout::Embedded, 4).unwrap();
+    let scene = DvrScene::new(gpu, &d, &vol, Layout::Embedded, 4).unwrap();
     let tf = TransferFunction::preset("marschner-lobb");
     let q = boxforge_runtime::bench::dvr::quality(
         &scene,
@@ -210,7 +210,7 @@ fn measure_dvr_targets() {
 fn bench_rows_and_markdown_for_dvr() {
     let gpu = gpu();
     let o = boxforge_runtime::bench::BenchOptions::smoke();
-    let rows = boxforge_runtime::bench::dvr::rows(&gpu, &o, 1, &|_| {}).unwrap();
+    let rows = boxforge_runtime::bench::dvr::rows(gpu, &o, 1, &|_| {}).unwrap();
     assert_eq!(rows.len(), 3, "skipping, no skipping, point-sampled");
     assert!(rows.iter().all(|r| r.kind.starts_with("dvr_ml_") && r.ms_per_frame.is_some_and(|m| m > 0.0)));
     assert!(rows[1].ratio.is_some() && rows[2].baseline.as_deref().is_some_and(|b| b.contains("RMS")));
@@ -252,7 +252,7 @@ fn skipping_keeps_a_surface_that_starts_right_past_an_empty_block() {
         "step.json",
     )
     .unwrap();
-    let scene = DvrScene::new(&gpu, &d, &vol, Layout::Embedded, 4).unwrap();
+    let scene = DvrScene::new(gpu, &d, &vol, Layout::Embedded, 4).unwrap();
     let o = DvrOptions {
         width: 48,
         height: 48,
@@ -272,4 +272,37 @@ fn skipping_keeps_a_surface_that_starts_right_past_an_empty_block() {
         let e = rms(&skip.rgba, &cpu_render(&d, &vol, &tf, &o));
         assert!(e < 2.0, "pre-integrated {preintegrate}: RMS {e:.2}/255 against the CPU reference");
     }
+}
+
+#[test]
+fn dvr_without_a_transfer_function_uses_the_default_ramp_and_says_so() {
+    let dir = std::env::temp_dir().join(format!("boxforge-dvr-default-{}", std::process::id()));
+    let out = dir.join("ml.png");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_boxforge"))
+        .args(["render", "--mode", "dvr", "--filter", "bcc_linear", "--volume", "ml:16"])
+        .args(["--size", "24", "--out", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{stderr}");
+    assert!(stderr.contains("default transfer function, a ramp over ["), "{stderr}");
+    // The ramp shows the data: the image is not the empty background.
+    let mut reader =
+        png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&out).unwrap())).read_info().unwrap();
+    let mut rgba = vec![0; reader.output_buffer_size().unwrap()];
+    reader.next_frame(&mut rgba).unwrap();
+    let distinct: std::collections::BTreeSet<&[u8]> = rgba.chunks(4).collect();
+    assert!(distinct.len() > 20, "{} distinct colours: the default ramp shows nothing", distinct.len());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn the_default_ramp_spans_the_data_and_rises_from_transparent() {
+    let tf = TransferFunction::ramp(-2.0, 6.0);
+    assert_eq!(tf.range, [-2.0, 6.0]);
+    assert_eq!(tf.eval(-2.0).1, 0.0);
+    assert!(tf.eval(2.0).1 > 0.0 && tf.eval(6.0).1 > tf.eval(2.0).1);
+    // A constant volume still gets a usable (non-empty) range.
+    let flat = TransferFunction::ramp(3.0, 3.0);
+    assert!(flat.range[1] > flat.range[0]);
 }

@@ -21,7 +21,7 @@ fn every_3d_catalog_filter_matches_the_exact_evaluator_on_the_device() {
             continue;
         }
         for layout in [Layout::Embedded, Layout::Packed] {
-            let r = verify(&gpu, &d, layout, Variant::Fast, 3000, 7).unwrap();
+            let r = verify(gpu, &d, layout, Variant::Fast, 3000, 7).unwrap();
             eprintln!("{name} {layout:?}: value {:.2e} grad {:.2e}", r.max_abs_err, r.max_rel_grad_err);
             if !r.passed {
                 failures.push(format!("{name} {layout:?}: {r:?}"));
@@ -35,7 +35,7 @@ fn every_3d_catalog_filter_matches_the_exact_evaluator_on_the_device() {
 fn the_naive_variant_computes_the_same_spline() {
     let gpu = gpu();
     let d = Derivation::new(&boxforge::spec::catalog::get("bcc_linear").unwrap()).unwrap();
-    let r = verify(&gpu, &d, Layout::Embedded, Variant::Naive, 2000, 3).unwrap();
+    let r = verify(gpu, &d, Layout::Embedded, Variant::Naive, 2000, 3).unwrap();
     assert!(r.passed, "{r:?}");
 }
 
@@ -45,8 +45,8 @@ fn verification_can_fail() {
     let bcc7 = Derivation::new(&boxforge::spec::catalog::get("bcc7").unwrap()).unwrap();
     let vol = boxforge_runtime::verify::random_volume(&bcc7, 5);
     let pts = boxforge_runtime::verify::random_points(&bcc7, &vol, 200, 5);
-    let dv = boxforge_runtime::volume::DeviceVolume::new(&gpu, &vol, Layout::Embedded).unwrap();
-    let (values, _) = boxforge_runtime::verify::gpu_eval(&gpu, &bcc7, &dv, Variant::Fast, &pts).unwrap();
+    let dv = boxforge_runtime::volume::DeviceVolume::new(gpu, &vol, Layout::Embedded).unwrap();
+    let (values, _) = boxforge_runtime::verify::gpu_eval(gpu, &bcc7, &dv, Variant::Fast, &pts).unwrap();
     let exact = boxforge_runtime::verify::cpu_eval(&bcc7, &vol, &pts);
     let max = values.iter().zip(&exact).map(|(v, e)| (*v as f64 - e.0).abs()).fold(0f64, f64::max);
     assert!(max < 1e-5, "bcc7 itself agrees ({max})");
@@ -84,7 +84,7 @@ fn every_evaluation_form_matches_the_exact_evaluator_on_the_device() {
         let d = Derivation::new(&boxforge::spec::catalog::get(name).unwrap()).unwrap();
         for &form in forms {
             for (layout, bounds) in [(Layout::Embedded, Bounds::Clamp), (Layout::Packed, Bounds::Unchecked)] {
-                let r = verify_with(&gpu, &d, layout, Variant::Fast, Some(form), bounds, 1500, 11).unwrap();
+                let r = verify_with(gpu, &d, layout, Variant::Fast, Some(form), bounds, 1500, 11).unwrap();
                 assert_eq!(r.form, form, "{name}: the forced form is the one emitted");
                 eprintln!(
                     "{name} {form:?} {layout:?} {bounds:?}: value {:.2e} grad {:.2e}",
@@ -113,7 +113,7 @@ fn linear_fetches_match_the_exact_evaluator_on_the_device() {
     for name in ["cc_tricubic", "cc_trilinear", "cc_triquadratic"] {
         let d = Derivation::new(&boxforge::spec::catalog::get(name).unwrap()).unwrap();
         let r =
-            verify_fetch(&gpu, &d, Layout::Embedded, Variant::Fast, None, Bounds::Clamp, FetchMode::Linear, 1500, 13)
+            verify_fetch(gpu, &d, Layout::Embedded, Variant::Fast, None, Bounds::Clamp, FetchMode::Linear, 1500, 13)
                 .unwrap();
         eprintln!("{name} linear: value {:.2e} grad {:.2e}", r.max_abs_err, r.max_rel_grad_err);
         assert!(r.passed, "{name}: {r:?}");
@@ -121,7 +121,7 @@ fn linear_fetches_match_the_exact_evaluator_on_the_device() {
     // Filters without a one-coset tensor structure are refused on the
     // embedded layout with a reason that names the packed layout.
     let bcc7 = Derivation::new(&boxforge::spec::catalog::get("bcc7").unwrap()).unwrap();
-    let e = verify_fetch(&gpu, &bcc7, Layout::Embedded, Variant::Fast, None, Bounds::Clamp, FetchMode::Linear, 10, 1)
+    let e = verify_fetch(gpu, &bcc7, Layout::Embedded, Variant::Fast, None, Bounds::Clamp, FetchMode::Linear, 10, 1)
         .unwrap_err()
         .to_string();
     assert!(e.contains("fetch = linear") && e.contains("--layout packed"), "{e}");
@@ -129,7 +129,7 @@ fn linear_fetches_match_the_exact_evaluator_on_the_device() {
     // (points a support radius inside; the borders have their own test).
     for name in ["bcc7", "bcc8", "fcc6", "bcc_linear", "cc_tricubic"] {
         let d = Derivation::new(&boxforge::spec::catalog::get(name).unwrap()).unwrap();
-        let r = verify_fetch(&gpu, &d, Layout::Packed, Variant::Fast, None, Bounds::Clamp, FetchMode::Linear, 1500, 17)
+        let r = verify_fetch(gpu, &d, Layout::Packed, Variant::Fast, None, Bounds::Clamp, FetchMode::Linear, 1500, 17)
             .unwrap();
         eprintln!("{name} packed linear: value {:.2e} grad {:.2e}", r.max_abs_err, r.max_rel_grad_err);
         assert!(r.passed, "{name}: {r:?}");
@@ -166,13 +166,13 @@ fn packed_linear_fetches_clamp_like_exact_loads() {
             .collect();
         let run = |fetch: FetchMode| {
             let dv = if fetch == FetchMode::Linear {
-                DeviceVolume::new_filtered(&gpu, &vol, Layout::Packed).unwrap()
+                DeviceVolume::new_filtered(gpu, &vol, Layout::Packed).unwrap()
             } else {
-                DeviceVolume::new(&gpu, &vol, Layout::Packed).unwrap()
+                DeviceVolume::new(gpu, &vol, Layout::Packed).unwrap()
             };
             let opts = EmitOptions { layout: Layout::Packed, kernels: false, fetch, ..EmitOptions::default() };
             let m = emit(&d, &opts).unwrap();
-            PointEvaluator::new(&gpu, &m.source, &m.file_name, name, &dv).unwrap().eval(&pts).unwrap().0
+            PointEvaluator::new(gpu, &m.source, &m.file_name, name, &dv).unwrap().eval(&pts).unwrap().0
         };
         let (exact, linear) = (run(FetchMode::Exact), run(FetchMode::Linear));
         let worst = exact.iter().zip(&linear).map(|(a, b)| (a - b).abs()).fold(0f32, f32::max);
@@ -207,7 +207,7 @@ fn every_filter_layout_form_and_fetch_mode_matches_the_exact_evaluator() {
                     if fetch == FetchMode::Linear && !filterable {
                         continue;
                     }
-                    let r = verify_fetch(&gpu, &d, layout, Variant::Fast, Some(form), Bounds::Clamp, fetch, 300, 29);
+                    let r = verify_fetch(gpu, &d, layout, Variant::Fast, Some(form), Bounds::Clamp, fetch, 300, 29);
                     match r {
                         Ok(r) => {
                             checked += 1;

@@ -29,8 +29,8 @@ fn exact_hits_on_a_thin_shell_miss_nothing_that_fixed_steps_miss() {
         let base = RenderOptions { width: 64, height: 64, iso, frames: 1, ..RenderOptions::default() };
         let (_, reference) = cpu_render_with_depth(&d, &vol, &exact(&base));
         let step = RenderOptions { hit: HitMode::Step, step: 0.5, ..base.clone() };
-        let (_, stepped) = render_with_depth(&gpu, &d, &vol, Layout::Embedded, &step).unwrap();
-        let (_, walked) = render_with_depth(&gpu, &d, &vol, Layout::Embedded, &exact(&base)).unwrap();
+        let (_, stepped) = render_with_depth(gpu, &d, &vol, Layout::Embedded, &step).unwrap();
+        let (_, walked) = render_with_depth(gpu, &d, &vol, Layout::Embedded, &exact(&base)).unwrap();
         let (s, x) = (misses(&reference, &stepped), misses(&reference, &walked));
         eprintln!("{name}: step 0.5 {s:?}, exact {x:?}");
         assert!(s.reference_hits > 300, "{name}: the shell is in view ({} pixels)", s.reference_hits);
@@ -52,7 +52,7 @@ fn exact_walk_matches_its_cpu_reference_on_marschner_lobb_with_and_without_skipp
         let (_, reference) = cpu_render_with_depth(&d, &vol, &o);
         for skip in [true, false] {
             let (_, depth) =
-                render_with_depth(&gpu, &d, &vol, Layout::Embedded, &RenderOptions { skip, ..o.clone() }).unwrap();
+                render_with_depth(gpu, &d, &vol, Layout::Embedded, &RenderOptions { skip, ..o.clone() }).unwrap();
             let m = misses(&reference, &depth);
             eprintln!("{name} skip {skip}: {m:?}, depth {}", max_depth_diff(&reference, &depth));
             assert!(m.reference_hits > 500, "{name}: the surface is in view");

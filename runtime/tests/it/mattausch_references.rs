@@ -95,16 +95,16 @@ fn mattausch_bilinear_schemes_match_the_papers_formulas_on_every_stack() {
         })
         .collect();
     let module = emit(&d, &EmitOptions { kernels: false, ..Default::default() }).unwrap().source;
-    let dv = DeviceVolume::new(&gpu, &vol, Layout::Embedded).unwrap();
+    let dv = DeviceVolume::new(gpu, &vol, Layout::Embedded).unwrap();
     type Cpu = fn(&LatticeVolume, [f64; 3], usize) -> f64;
     let schemes: [(&str, Cpu); 2] =
         [("mattausch_bilinear", bilinear), ("mattausch_bilinear_spatial", bilinear_spatial)];
     for (entry, cpu) in schemes {
         for axis in 0..3 {
             let call = format!("vec4<f32>({entry}(p, {axis}), 0.0, 0.0, 0.0)");
-            let job = Job::new(&gpu, &program(&module, MATTAUSCH_BILINEAR, &call), entry, &dv, &points).unwrap();
-            job.time(&gpu).unwrap();
-            let out = job.outputs(&gpu).unwrap();
+            let job = Job::new(gpu, &program(&module, MATTAUSCH_BILINEAR, &call), entry, &dv, &points).unwrap();
+            job.time(gpu).unwrap();
+            let out = job.outputs(gpu).unwrap();
             let mut worst = 0f64;
             for (p, o) in points.iter().zip(&out) {
                 let x = [p[0] as f64, p[1] as f64, p[2] as f64];
@@ -163,13 +163,13 @@ fn ray_cast_bilinear_spatial_reproduces_an_affine_volume_like_barycentric() {
     let base = schemes::base().unwrap();
     let tf = slab_tf();
     let o = DvrOptions { width: 64, height: 64, frames: 0, step: 0.25, ..DvrOptions::default() };
-    let reference = DvrScene::new(&gpu, &base, &vol, Layout::Embedded, 4).unwrap().render(&tf, &o).unwrap();
-    let (frame, choice) = schemes::render(&gpu, &vol, Scheme::BilinearSpatial, &tf, &o).unwrap();
+    let reference = DvrScene::new(gpu, &base, &vol, Layout::Embedded, 4).unwrap().render(&tf, &o).unwrap();
+    let (frame, choice) = schemes::render(gpu, &vol, Scheme::BilinearSpatial, &tf, &o).unwrap();
     let e = rms(&frame.rgba, &reference.rgba);
     eprintln!("{choice}; RMS vs bcc_linear {e:.3}/255");
     assert!(e < 1.0, "bilinear + spatial vs barycentric on an affine volume: RMS {e:.3}/255");
     // Nearest-plane bilinear does not reproduce the part across the planes: it can fail.
-    let (frame, _) = schemes::render(&gpu, &vol, Scheme::Bilinear, &tf, &o).unwrap();
+    let (frame, _) = schemes::render(gpu, &vol, Scheme::Bilinear, &tf, &o).unwrap();
     let e_nearest = rms(&frame.rgba, &reference.rgba);
     eprintln!("nearest-plane bilinear: RMS vs bcc_linear {e_nearest:.3}/255");
     assert!(e_nearest > 4.0 * e.max(0.1), "nearest-plane bilinear RMS {e_nearest:.3}/255");
@@ -185,10 +185,10 @@ fn ray_cast_schemes_pick_the_stack_from_the_view_and_skip_exactly() {
         // Looking down z (elevation 80): the z stack, and not the x stack.
         let o =
             DvrOptions { width: 48, height: 48, frames: 0, azimuth: 20.0, elevation: 80.0, ..DvrOptions::default() };
-        let (frame, choice) = schemes::render(&gpu, &vol, scheme, &tf, &o).unwrap();
+        let (frame, choice) = schemes::render(gpu, &vol, scheme, &tf, &o).unwrap();
         assert!(choice.contains("plane stack along z"), "{choice}");
         let stack =
-            |axis: usize| schemes::scene(&gpu, &base, &vol, scheme, axis, o.block).unwrap().render(&tf, &o).unwrap();
+            |axis: usize| schemes::scene(gpu, &base, &vol, scheme, axis, o.block).unwrap().render(&tf, &o).unwrap();
         let (z, x) = (stack(2), stack(0));
         assert_eq!(rms(&frame.rgba, &z.rgba), 0.0, "{}: the chosen stack is z", scheme.name());
         let other = rms(&frame.rgba, &x.rgba);
@@ -197,7 +197,7 @@ fn ray_cast_schemes_pick_the_stack_from_the_view_and_skip_exactly() {
         // slab of an affine volume: many blocks are transparent).
         let slab = slab_tf();
         let affine = affine_bcc(40, 0.0107);
-        let skip = schemes::scene(&gpu, &base, &affine, scheme, 2, o.block).unwrap();
+        let skip = schemes::scene(gpu, &base, &affine, scheme, 2, o.block).unwrap();
         let a = skip.render(&slab, &o).unwrap();
         let b = skip.render(&slab, &DvrOptions { skip: false, ..o.clone() }).unwrap();
         let e = rms(&a.rgba, &b.rgba);

@@ -41,7 +41,7 @@ fn reported_memory_is_the_papers_formula_applied_to_our_counts() {
     let gpu = gpu();
     let d = derive("bcc7");
     let vol = LatticeVolume::marschner_lobb(&d.filter.lattice, [16, 16, 16]).unwrap();
-    let scene = DvrScene::new(&gpu, &d, &vol, Layout::Embedded, 4).unwrap();
+    let scene = DvrScene::new(gpu, &d, &vol, Layout::Embedded, 4).unwrap();
     let table = shell().table();
     for quant in
         [Quant { density: 3, gradient: 3 }, Quant { density: 5, gradient: 3 }, Quant { density: 2, gradient: 4 }]
@@ -75,7 +75,7 @@ fn perm_image_matches_direct_evaluation_at_n_10() {
     let gpu = gpu();
     let d = derive("bcc7");
     let vol = LatticeVolume::marschner_lobb(&d.filter.lattice, [24, 24, 24]).unwrap();
-    let scene = DvrScene::new(&gpu, &d, &vol, Layout::Embedded, 4).unwrap();
+    let scene = DvrScene::new(gpu, &d, &vol, Layout::Embedded, 4).unwrap();
     for tf in [shell(), TransferFunction::preset("marschner-lobb")] {
         let o = options();
         let table = tf.table();
@@ -125,7 +125,7 @@ fn candidate_cells_and_cached_values_match_cpu_computations() {
     for name in ["bcc_linear", "cc_tricubic"] {
         let d = derive(name);
         let vol = LatticeVolume::marschner_lobb(&d.filter.lattice, [12, 12, 12]).unwrap();
-        let scene = DvrScene::new(&gpu, &d, &vol, Layout::Embedded, 4).unwrap();
+        let scene = DvrScene::new(gpu, &d, &vol, Layout::Embedded, 4).unwrap();
         let table = shell().table();
         let quant = Quant { density: 3, gradient: 2 };
         let cache = PermCache::build(&scene, &table, quant, 0.5, true).unwrap();
@@ -155,7 +155,7 @@ fn candidate_cells_and_cached_values_match_cpu_computations() {
         }
         // The cached densities (computed on the device) are the exact
         // evaluator's at the sub-cell centres, to 16-bit fixed point.
-        let dens = cache.densities(&gpu, &table).unwrap();
+        let dens = cache.densities(gpu, &table).unwrap();
         let n = quant.density as usize;
         let data = |j: &[i64]| vol.get(j) as f64;
         let mut worst = 0f64;
@@ -194,7 +194,7 @@ fn peeling_drops_unreachable_cells_and_leaves_the_image_unchanged() {
     let gpu = gpu();
     let d = derive("cc_tricubic");
     let vol = ball(40);
-    let scene = DvrScene::new(&gpu, &d, &vol, Layout::Embedded, 4).unwrap();
+    let scene = DvrScene::new(gpu, &d, &vol, Layout::Embedded, 4).unwrap();
     let tf = TransferFunction::parse(
         r#"{"range": [0, 1], "points": [{"value": 0, "color": [0, 0, 0], "opacity": 0},
             {"value": 0.4, "color": [0.3, 0.5, 0.9], "opacity": 0}, {"value": 0.6, "color": [1, 0.8, 0.5], "opacity": 0.9},

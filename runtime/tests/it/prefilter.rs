@@ -17,7 +17,7 @@ fn gpu_prefilter_equals_cpu_for_every_3d_filter_and_layout() {
         let vol = LatticeVolume::marschner_lobb(&d.filter.lattice, [20, 20, 20]).unwrap();
         let cpu = prefilter_cpu(&d, &vol);
         for layout in [Layout::Embedded, Layout::Packed] {
-            let g = prefilter_gpu(&gpu, &d, &vol, layout).unwrap();
+            let g = prefilter_gpu(gpu, &d, &vol, layout).unwrap();
             // Compare away from the border (the layouts clamp differently there).
             let r = boxforge_runtime::verify::support_radius(&d) as i64 + 2;
             let mut max: f32 = 0.0;

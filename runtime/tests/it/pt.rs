@@ -69,11 +69,11 @@ fn agree(d: &Derivation, edge: usize) {
         };
         // The ray caster at a fine step (its segments converge to the integral).
         let fine = DvrOptions { step: 0.05, termination: 0.9999, ..o.clone() };
-        let scene = DvrScene::new(&gpu, d, &vol, Layout::Embedded, 4).unwrap();
+        let scene = DvrScene::new(gpu, d, &vol, Layout::Embedded, 4).unwrap();
         let reference = scene.render(&tf, &fine).unwrap();
         let mut smooth_images = Vec::new();
         for shading in [Shading::Gouraud, Shading::Phong] {
-            let (frame, stats) = render(&gpu, d, &vol, &tf, &o, shading, Normals::Cell).unwrap();
+            let (frame, stats) = render(gpu, d, &vol, &tf, &o, shading, Normals::Cell).unwrap();
             let e = rms(&frame.rgba, &reference.rgba);
             eprintln!(
                 "{} view ({az}, {el}) {shading:?}: PT vs ray cast RMS {e:.3}/255; {} of {} tetrahedra drawn; covered {:.2}",
@@ -95,7 +95,7 @@ fn agree(d: &Derivation, edge: usize) {
             );
             // The paper's smooth vertex normals: only the shading changes (same
             // footprint; the lighting moves by several levels, not wholesale).
-            let (smooth, _) = render(&gpu, d, &vol, &tf, &o, shading, Normals::Vertex).unwrap();
+            let (smooth, _) = render(gpu, d, &vol, &tf, &o, shading, Normals::Vertex).unwrap();
             let es = rms(&smooth.rgba, &reference.rgba);
             eprintln!("  with vertex normals: RMS {es:.3}/255 against the ray cast");
             assert!(

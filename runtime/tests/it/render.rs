@@ -42,7 +42,7 @@ fn gpu_image_matches_the_cpu_reference_ray_cast() {
     for (name, edge, perspective) in [("bcc7", 36, false), ("fcc6", 30, true)] {
         let (gpu, d, vol) = setup(name, edge);
         let o = RenderOptions { width: 64, height: 64, perspective, frames: 1, ..RenderOptions::default() };
-        let frame = render(&gpu, &d, &vol, Layout::Embedded, &o).unwrap();
+        let frame = render(gpu, &d, &vol, Layout::Embedded, &o).unwrap();
         let reference = cpu_render(&d, &vol, &o);
         let hits = reference.chunks(4).filter(|p| is_hit(p)).count();
         assert!(hits > 200, "{name}: the surface is in view ({hits} pixels)");
@@ -56,14 +56,14 @@ fn gpu_image_matches_the_cpu_reference_ray_cast() {
 fn same_input_same_image_and_skipping_does_not_change_it() {
     let (gpu, d, vol) = setup("bcc7", 36);
     let o = RenderOptions { width: 64, height: 64, frames: 1, ..RenderOptions::default() };
-    let a = render(&gpu, &d, &vol, Layout::Embedded, &o).unwrap();
-    let b = render(&gpu, &d, &vol, Layout::Embedded, &o).unwrap();
+    let a = render(gpu, &d, &vol, Layout::Embedded, &o).unwrap();
+    let b = render(gpu, &d, &vol, Layout::Embedded, &o).unwrap();
     assert_eq!(a.rgba, b.rgba, "deterministic");
     assert!(a.empty_blocks > 0.2, "Marschner-Lobb has empty blocks ({:.2})", a.empty_blocks);
-    let no_skip = render(&gpu, &d, &vol, Layout::Embedded, &RenderOptions { skip: false, ..o.clone() }).unwrap();
+    let no_skip = render(gpu, &d, &vol, Layout::Embedded, &RenderOptions { skip: false, ..o.clone() }).unwrap();
     let (mismatch, shading) = compare(&a.rgba, &no_skip.rgba);
     assert!(mismatch <= 0.01 && shading < 1.0, "skipping changed the image: {mismatch} {shading}");
-    let packed = render(&gpu, &d, &vol, Layout::Packed, &o).unwrap();
+    let packed = render(gpu, &d, &vol, Layout::Packed, &o).unwrap();
     let (mismatch, shading) = compare(&a.rgba, &packed.rgba);
     assert!(mismatch <= 0.01 && shading < 1.0, "packed differs from embedded: {mismatch} {shading}");
 }
@@ -76,8 +76,8 @@ fn block_bounds_contain_the_spline() {
     for name in ["fcc6", "cc_tricubic"] {
         let (gpu, d, vol) = setup(name, 24);
         let o = RenderOptions { width: 48, height: 48, frames: 1, iso: 0.3, ..RenderOptions::default() };
-        let with = render(&gpu, &d, &vol, Layout::Embedded, &o).unwrap();
-        let without = render(&gpu, &d, &vol, Layout::Embedded, &RenderOptions { skip: false, ..o.clone() }).unwrap();
+        let with = render(gpu, &d, &vol, Layout::Embedded, &o).unwrap();
+        let without = render(gpu, &d, &vol, Layout::Embedded, &RenderOptions { skip: false, ..o.clone() }).unwrap();
         let (mismatch, _) = compare(&with.rgba, &without.rgba);
         assert!(mismatch <= 0.01, "{name}: {mismatch}");
     }

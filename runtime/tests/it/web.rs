@@ -2,8 +2,8 @@
 //! SwiftShader, Chrome's Tint compiling the WGSL), driven over the DevTools
 //! protocol: every module of the site compiles in Tint, and the page's
 //! canvas shows the same image as `boxforge render` on lavapipe for bcc7,
-//! fcc6 and cc_tricubic isosurfaces and a bcc7 volume rendering. Also writes the README's screenshot
-//! (docs/web-viewer.png). Needs Debian's chromium (scripts/test.sh installs it).
+//! fcc6 and cc_tricubic isosurfaces and a bcc7 volume rendering. Also takes the README's screenshot, into
+//! the target folder (scripts/refresh-docs-pictures.sh copies it to docs/web-viewer.png). Needs Debian's chromium (scripts/test.sh installs it).
 
 #[path = "web/cdp.rs"]
 mod cdp;

@@ -151,6 +151,22 @@ impl TransferFunction {
         }
     }
 
+    /// The default a viewer starts from when no transfer function is given:
+    /// a ramp over the data's range `[lo, hi]`, transparent at `lo`, rising
+    /// linearly to opacity 0.25 per unit slab at `hi`, coloured from dark
+    /// blue through orange to white, so every value above the lowest shows
+    /// and denser data is brighter and more opaque.
+    pub fn ramp(lo: f64, hi: f64) -> TransferFunction {
+        let (lo, hi) = if hi > lo { (lo, hi) } else { (lo, lo + 1.0) };
+        let at = |t: f64| lo + t * (hi - lo);
+        let point = |t: f64, color: [f64; 3]| ControlPoint { value: at(t), color, opacity: 0.25 * t };
+        TransferFunction {
+            name: format!("ramp over [{lo}, {hi}]"),
+            range: [lo, hi],
+            points: vec![point(0.0, [0.1, 0.15, 0.4]), point(0.5, [0.95, 0.55, 0.2]), point(1.0, [1.0, 1.0, 1.0])],
+        }
+    }
+
     /// A preset by name (panics on an unknown name: for built-in uses).
     pub fn preset(name: &str) -> TransferFunction {
         let text = PRESETS.iter().find(|p| p.0 == name).unwrap_or_else(|| panic!("no preset {name}")).1;

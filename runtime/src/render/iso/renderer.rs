@@ -204,7 +204,7 @@ impl IsoRenderer {
             }
         }
         let gpu = &self.gpu;
-        let limit = gpu.limits().max_storage_buffer_binding_size as u64;
+        let limit = gpu.limits().max_storage_buffer_binding_size;
         let bytes = target.width as u64 * target.height as u64 * 4;
         if bytes > limit {
             return Err(RenderError::TargetTooLarge { width: target.width, height: target.height, limit });

@@ -169,9 +169,10 @@ pub fn run(a: RenderArgs) -> Result<(), Failure> {
         return Err(Failure("--peel peels the PERM cache: add --cache perm (with --mode dvr)".into()));
     }
     let pt = request::check_renderer(a.renderer.name(), mode, cache, a.perspective)?;
-    let tf = match &dvr {
-        Some(name) => Some(TransferFunction::load(name)?),
-        None => None,
+    // An empty name: no --tf given, the default ramp once the data's range is known.
+    let mut tf = match &dvr {
+        Some(name) if !name.is_empty() => Some(TransferFunction::load(name)?),
+        _ => None,
     };
     let layout = Layout::from(a.layout);
     // Mattausch et al.'s hand-written plane-stack schemes: ray-cast DVR on BCC only.
@@ -213,6 +214,11 @@ pub fn run(a: RenderArgs) -> Result<(), Failure> {
     let conversion = if a.resample { Conversion::Resample } else { Conversion::Subset };
     let vol = scene::load(&a.volume, a.raw.as_deref(), &lat, conversion).map_err(|e| Failure(e.to_string()))?;
     let (lo, hi) = vol.data.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
+    if dvr.as_deref() == Some("") {
+        let ramp = TransferFunction::ramp(lo as f64, hi as f64);
+        eprintln!("no --tf given: using the default transfer function, a {} (give --tf to choose one)", ramp.name);
+        tf = Some(ramp);
+    }
     let warning = match &tf {
         Some(tf) => request::tf_warning(&tf.table(), lo, hi),
         None => request::iso_warning(a.iso, lo, hi),
