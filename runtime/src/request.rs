@@ -163,7 +163,8 @@ pub fn check_output_dir(dir: &std::path::Path, flag: &str) -> Result<(), String>
 }
 
 /// `--mode` with `--tf` and `--no-preintegration` of `render`: Some(the
-/// transfer function argument) for `--mode dvr`, None for `iso`.
+/// transfer function argument, empty when none was given: the default ramp)
+/// for `--mode dvr`, None for `iso`.
 pub fn check_render_mode(mode: &str, tf: Option<&str>, no_preintegration: bool) -> Result<Option<String>, String> {
     match (mode, tf) {
         ("dvr", Some(tf)) => Ok(Some(tf.to_string())),
@@ -267,7 +268,8 @@ mod tests {
     fn dvr_flags_go_with_mode_dvr() {
         assert_eq!(check_render_mode("iso", None, false), Ok(None));
         assert_eq!(check_render_mode("dvr", Some("mni-tissue"), false), Ok(Some("mni-tissue".into())));
-        assert!(check_render_mode("dvr", None, false).unwrap_err().contains("--tf"));
+        // No --tf: the default ramp, chosen once the data is loaded (an empty name).
+        assert_eq!(check_render_mode("dvr", None, false), Ok(Some(String::new())));
         assert!(check_render_mode("iso", Some("x.json"), false).unwrap_err().starts_with("--tf x.json"));
         assert!(check_render_mode("iso", None, true).unwrap_err().starts_with("--no-preintegration"));
         let t = crate::render::dvr::transfer::TransferFunction::preset("mni-tissue").table();
