@@ -5,8 +5,9 @@
 //! shader module, buffer or texture and writes no texture; it writes the
 //! ray parameters only when the camera changed.
 
-use super::{fine_grid, ray_params_for, raycast_shader, HitMode, RayParams, RenderOptions};
+use super::{fine_grid, ray_params_for, raycast_shader, Frame, HitMode, RayParams, RenderOptions};
 use crate::gpu::binding::{storage_entry, uniform_entry};
+use crate::gpu::timing::timed_banded_frames;
 use crate::gpu::Gpu;
 use crate::render::blocks::{self, block_bounds};
 use crate::render::camera::{Camera, Target};
@@ -40,9 +41,9 @@ impl Default for IsoOptions {
 struct Sized {
     width: u32,
     height: u32,
-    format: wgpu::TextureFormat,
     caster: wgpu::BindGroup,
-    present: wgpu::BindGroup,
+    /// The present bind group for the last target format.
+    present: Option<(wgpu::TextureFormat, wgpu::BindGroup)>,
     image: wgpu::Buffer,
     depth: wgpu::Buffer,
 }
@@ -174,6 +175,7 @@ impl IsoRenderer {
             self.last_params = Some(params);
         }
         let sized = self.sized.as_ref().expect("resized above");
+        let present = &sized.present.as_ref().expect("prepared above").1;
         {
             let mut pass = encoder
                 .begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("raycast"), timestamp_writes: None });
@@ -182,7 +184,7 @@ impl IsoRenderer {
             pass.set_bind_group(1, &sized.caster, &[]);
             pass.dispatch_workgroups(target.width.div_ceil(8), target.height.div_ceil(8), 1);
         }
-        self.presenter.encode(encoder, target.view, target.format, &sized.present);
+        self.presenter.encode(encoder, target.view, target.format, present);
         Ok(())
     }
 
@@ -198,18 +200,30 @@ impl IsoRenderer {
     }
 
     fn resize(&mut self, target: &Target<'_>) -> Result<(), RenderError> {
+        self.ensure_image(target.width, target.height)?;
+        let sized = self.sized.as_mut().expect("allocated above");
+        if sized.present.as_ref().map(|(format, _)| *format) != Some(target.format) {
+            self.presenter.prepare(&self.gpu, target.format)?;
+            let bind = self.presenter.bind(&self.gpu, &sized.image, target.width, target.format);
+            sized.present = Some((target.format, bind));
+        }
+        Ok(())
+    }
+
+    /// The image and depth buffers and the caster's bind group for a
+    /// `width` x `height` frame (kept while the size stays).
+    fn ensure_image(&mut self, width: u32, height: u32) -> Result<(), RenderError> {
         if let Some(s) = &self.sized {
-            if (s.width, s.height, s.format) == (target.width, target.height, target.format) {
+            if (s.width, s.height) == (width, height) {
                 return Ok(());
             }
         }
         let gpu = &self.gpu;
         let limit = gpu.limits().max_storage_buffer_binding_size;
-        let bytes = target.width as u64 * target.height as u64 * 4;
+        let bytes = width as u64 * height as u64 * 4;
         if bytes > limit {
-            return Err(RenderError::TargetTooLarge { width: target.width, height: target.height, limit });
+            return Err(RenderError::TargetTooLarge { width, height, limit });
         }
-        self.presenter.prepare(gpu, target.format)?;
         let image = gpu.storage_buffer("image", &vec![0u8; bytes as usize], true);
         let depth = gpu.storage_buffer("depth", &vec![0u8; bytes as usize], true);
         let caster = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -226,17 +240,33 @@ impl IsoRenderer {
                 },
             ],
         });
-        let present = self.presenter.bind(gpu, &image, target.width, target.format);
-        self.sized = Some(Sized {
-            width: target.width,
-            height: target.height,
-            format: target.format,
-            caster,
-            present,
-            image,
-            depth,
-        });
+        self.sized = Some(Sized { width, height, present: None, caster, image, depth });
         Ok(())
+    }
+
+    /// The CLI's and the bench's frames: one warm-up and `o.frames` timed
+    /// frames of `o.width` x `o.height` (in bands of rows with a progress
+    /// bar when `o.progress`), read back as RGBA8 and hit depths.
+    pub(crate) fn timed_frames(&mut self, o: &RenderOptions) -> Result<(Frame, Vec<f32>), RenderError> {
+        self.ensure_image(o.width, o.height)?;
+        let params = ray_params_for(self.radius, self.dims, o);
+        let sized = self.sized.as_ref().expect("allocated above");
+        let times = timed_banded_frames(
+            &self.gpu,
+            &self.pipeline,
+            [&self.samples, &sized.caster],
+            (&self.params, params, |p: &mut RayParams, y0| p.image[3] = y0 as i32),
+            (o.width, o.height, if o.progress { 32 } else { o.height }),
+            ("raycast", "rendering rows", o.progress),
+            o.frames.max(1),
+        )?;
+        // The bands rewrote the parameters: the next encode writes its own.
+        self.last_params = None;
+        let words: Vec<u32> = bytemuck::cast_slice(&self.gpu.read_buffer(&sized.image)?).to_vec();
+        let rgba = words.iter().flat_map(|w| w.to_le_bytes()).collect();
+        let depth: Vec<f32> = bytemuck::cast_slice(&self.gpu.read_buffer(&sized.depth)?).to_vec();
+        let ms_per_frame = times[times.len() / 2];
+        Ok((Frame { width: o.width, height: o.height, rgba, ms_per_frame, empty_blocks: self.empty_blocks }, depth))
     }
 }
 
