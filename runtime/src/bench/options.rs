@@ -88,7 +88,7 @@ pub(super) fn derive_filter(name: &str) -> Result<Derivation, BenchError> {
 
 /// Checks every input of a run (filters, the MNI file, an external shader)
 /// before the first measurement, so a bad one fails in a second instead of
-/// after minutes of timing. [`run`] calls it; the CLI calls it before it
+/// after minutes of timing. [`run`](fn@super::run) calls it; the CLI calls it before it
 /// even opens a device.
 pub fn check_inputs(o: &BenchOptions) -> Result<(), BenchError> {
     for name in &o.filters {

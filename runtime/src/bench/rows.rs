@@ -132,7 +132,7 @@ pub struct BenchReport {
     pub gradient: Vec<GradientRow>,
     pub quality: Vec<QualityRow>,
     pub convergence: Vec<ConvergenceRow>,
-    /// False in the snapshots [`run_with`] hands out while it measures.
+    /// False in the snapshots [`run_with`](fn@super::run_with) hands out while it measures.
     pub complete: bool,
 }
 
