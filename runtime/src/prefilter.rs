@@ -8,6 +8,20 @@ use crate::volume::LatticeVolume;
 use boxforge::derive::Derivation;
 use boxforge::emit::{emit, EmitOptions, Layout};
 
+/// Why the device prefilter could not run.
+#[derive(Debug, thiserror::Error)]
+pub enum PrefilterError {
+    #[error(transparent)]
+    Gpu(#[from] GpuError),
+    /// The generator refused the module (its message names the reason).
+    #[error("{0}")]
+    Emit(String),
+    #[error(
+        "volume of {points} points is too large for one prefilter dispatch on this device; split it or use a smaller volume"
+    )]
+    TooLarge { points: usize },
+}
+
 /// c_j = sum_k q_k f(j - k) at every lattice point of the box (clamped
 /// fetches at the border, like the shaders), on the CPU.
 pub fn prefilter_cpu(d: &Derivation, vol: &LatticeVolume) -> LatticeVolume {
@@ -37,10 +51,10 @@ pub fn prefilter_gpu(
     d: &Derivation,
     vol: &LatticeVolume,
     layout: Layout,
-) -> Result<LatticeVolume, GpuError> {
+) -> Result<LatticeVolume, PrefilterError> {
     let name = &d.filter.name;
     let module = emit(d, &EmitOptions { layout, command: "boxforge prefilter".into(), ..Default::default() })
-        .map_err(|e| GpuError::Runtime(e.to_string()))?;
+        .map_err(|e| PrefilterError::Emit(e.to_string()))?;
     let shader = gpu.compile(&module.file_name, &module.source)?;
     let dev = &gpu.device;
     let dv = DeviceVolume::new(gpu, vol, layout)?;
@@ -63,9 +77,7 @@ pub fn prefilter_gpu(
     let pipeline = gpu.pipeline("prefilter", &shader, &[&bgl], &format!("{name}_prefilter_main"))?;
     let groups = (n as u32).div_ceil(64);
     if groups > gpu.device.limits().max_compute_workgroups_per_dimension {
-        return Err(GpuError::Runtime(format!(
-            "volume of {n} points is too large for one prefilter dispatch on this device; split it or use a smaller volume"
-        )));
+        return Err(PrefilterError::TooLarge { points: n });
     }
     gpu.dispatch("prefilter", &pipeline, &[&bg], (groups, 1, 1))?;
     let data: Vec<f32> = bytemuck::cast_slice(&gpu.read_buffer(&out)?).to_vec();

@@ -9,6 +9,22 @@ use boxforge::derive::Derivation;
 use boxforge::emit::{emit, Bounds, EmitOptions, EvalForm, FetchMode, Layout, Variant};
 use serde::Serialize;
 
+pub mod kernel;
+
+/// Why a verification (or an evaluation on the device) could not run.
+#[derive(Debug, thiserror::Error)]
+pub enum VerifyError {
+    #[error(transparent)]
+    Gpu(#[from] GpuError),
+    /// The generator refused the module (its message names the reason).
+    #[error("{0}")]
+    Emit(String),
+    #[error("{filter} is {dim}D: the runtime verifies 3D filters (2D shaders are checked by naga only)")]
+    NotThreeD { filter: String, dim: usize },
+    #[error("the points count must be at least 1")]
+    NoPoints,
+}
+
 #[derive(Clone, Debug, Serialize)]
 pub struct VerifyReport {
     pub filter: String,
@@ -67,25 +83,18 @@ pub fn random_volume(d: &Derivation, seed: u64) -> LatticeVolume {
     LatticeVolume { lattice: d.filter.lattice.clone(), dims, data }
 }
 
-/// A compute wrapper that evaluates the filter at a list of points.
+/// The compute wrapper that evaluates `<name>_eval_grad` and `<name>_eval`
+/// at a list of points (entry `verify_main`, group 1: points, gradients, values).
 fn wrapper(name: &str) -> String {
-    format!(
-        "
-@group(1) @binding(0) var<storage, read> vf_points: array<vec4<f32>>;
-@group(1) @binding(1) var<storage, read_write> vf_grad: array<vec4<f32>>;
-@group(1) @binding(2) var<storage, read_write> vf_value: array<f32>;
-
-@compute @workgroup_size(64)
-fn verify_main(@builtin(global_invocation_id) gid: vec3<u32>) {{
-    let i = gid.x + gid.y * 65535u * 64u;
-    if (i >= arrayLength(&vf_points)) {{
-        return;
-    }}
-    let p = vf_points[i].xyz;
-    vf_grad[i] = {name}_eval_grad(p);
-    vf_value[i] = {name}_eval(p);
-}}
-"
+    let (grad, value) = (format!("{name}_eval_grad(p)"), format!("{name}_eval(p)"));
+    kernel::points_kernel(
+        "verify_main",
+        1,
+        "vf",
+        &[
+            kernel::Output { name: "grad", ty: "vec4<f32>", expr: &grad },
+            kernel::Output { name: "value", ty: "f32", expr: &value },
+        ],
     )
 }
 
@@ -96,7 +105,7 @@ pub fn gpu_eval(
     vol: &DeviceVolume,
     variant: Variant,
     points: &[[f32; 4]],
-) -> Result<(Vec<f32>, Vec<[f32; 4]>), GpuError> {
+) -> Result<(Vec<f32>, Vec<[f32; 4]>), VerifyError> {
     gpu_eval_with(gpu, d, vol, variant, None, Bounds::Clamp, points).map(|(v, g, _)| (v, g))
 }
 
@@ -111,7 +120,7 @@ fn verify_module(
     variant: Variant,
     form: Option<EvalForm>,
     bounds: Bounds,
-) -> Result<boxforge::emit::Emitted, GpuError> {
+) -> Result<boxforge::emit::Emitted, VerifyError> {
     emit(
         d,
         &EmitOptions {
@@ -125,7 +134,7 @@ fn verify_module(
             ..Default::default()
         },
     )
-    .map_err(|e| GpuError::Runtime(e.to_string()))
+    .map_err(|e| VerifyError::Emit(e.to_string()))
 }
 
 /// [`gpu_eval`] with a forced evaluation form and a bounds policy; also
@@ -138,7 +147,7 @@ pub fn gpu_eval_with(
     form: Option<EvalForm>,
     bounds: Bounds,
     points: &[[f32; 4]],
-) -> Result<GpuValues, GpuError> {
+) -> Result<GpuValues, VerifyError> {
     let module = verify_module(d, vol, variant, form, bounds)?;
     let used = module.stats.form;
     let (v, g) = gpu_eval_source(gpu, &module.source, &module.file_name, &d.filter.name, vol, points)?;
@@ -232,8 +241,7 @@ impl<'a> PointEvaluator<'a> {
                 ],
             })
         })?;
-        let groups = n.div_ceil(64) as u32;
-        let (gx, gy) = (groups.min(65535), groups.div_ceil(65535));
+        let (gx, gy) = kernel::dispatch_size(n);
         gpu.dispatch("verify", &self.pipeline, &[&self.bg0, &bg1], (gx, gy, 1))?;
         let g: Vec<[f32; 4]> = bytemuck::cast_slice(&gpu.read_buffer(&grad)?).to_vec();
         let v: Vec<f32> = bytemuck::cast_slice(&gpu.read_buffer(&value)?).to_vec();
@@ -283,7 +291,7 @@ pub fn verify(
     variant: Variant,
     points: usize,
     seed: u64,
-) -> Result<VerifyReport, GpuError> {
+) -> Result<VerifyReport, VerifyError> {
     verify_with(gpu, d, layout, variant, None, Bounds::Clamp, points, seed)
 }
 
@@ -300,7 +308,7 @@ pub fn verify_with(
     bounds: Bounds,
     points: usize,
     seed: u64,
-) -> Result<VerifyReport, GpuError> {
+) -> Result<VerifyReport, VerifyError> {
     verify_fetch(gpu, d, layout, variant, form, bounds, FetchMode::Exact, points, seed)
 }
 
@@ -318,15 +326,12 @@ pub fn verify_fetch(
     fetch: FetchMode,
     points: usize,
     seed: u64,
-) -> Result<VerifyReport, GpuError> {
+) -> Result<VerifyReport, VerifyError> {
     if d.facts.dim != 3 {
-        return Err(GpuError::Runtime(format!(
-            "{} is {}D: the runtime verifies 3D filters (2D shaders are checked by naga only)",
-            d.filter.name, d.facts.dim
-        )));
+        return Err(VerifyError::NotThreeD { filter: d.filter.name.clone(), dim: d.facts.dim });
     }
     if points == 0 {
-        return Err(GpuError::Runtime("--points must be at least 1".into()));
+        return Err(VerifyError::NoPoints);
     }
     let vol = random_volume(d, seed);
     let dv = match fetch {

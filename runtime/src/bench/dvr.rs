@@ -8,7 +8,7 @@
 //! slab artifacts.
 
 use super::stats::{median, round_order, Ratio};
-use super::{BenchOptions, BenchRow};
+use super::{BenchError, BenchOptions, BenchRow};
 use crate::gpu::Gpu;
 use crate::render::dvr::transfer::TransferFunction;
 use crate::render::dvr::{rms, DvrOptions, DvrScene};
@@ -32,8 +32,8 @@ pub struct Quality {
 }
 
 /// Measures [`Quality`] on a prepared scene.
-pub fn quality(scene: &DvrScene, tf: &TransferFunction, o: &DvrOptions) -> Result<Quality, String> {
-    let e = |x: crate::gpu::GpuError| x.to_string();
+pub fn quality(scene: &DvrScene, tf: &TransferFunction, o: &DvrOptions) -> Result<Quality, BenchError> {
+    let e = |x: crate::gpu::GpuError| BenchError::from(x);
     let o = DvrOptions { frames: 0, progress: false, ..o.clone() };
     let fine = scene.render(tf, &DvrOptions { step: FINE_STEP, preintegrate: false, ..o.clone() }).map_err(e)?;
     let pi = scene.render(tf, &DvrOptions { step: STEP, preintegrate: true, ..o.clone() }).map_err(e)?;
@@ -44,11 +44,11 @@ pub fn quality(scene: &DvrScene, tf: &TransferFunction, o: &DvrOptions) -> Resul
 /// The DVR bench rows (none when the run renders nothing). `rounds`
 /// interleaved rounds of three contenders: pre-integrated with skipping,
 /// pre-integrated without, point-sampled with skipping.
-pub fn rows(gpu: &Gpu, o: &BenchOptions, rounds: usize, progress: &dyn Fn(&str)) -> Result<Vec<BenchRow>, String> {
+pub fn rows(gpu: &Gpu, o: &BenchOptions, rounds: usize, progress: &dyn Fn(&str)) -> Result<Vec<BenchRow>, BenchError> {
     let Some(&size) = o.render_sizes.first() else {
         return Ok(vec![]);
     };
-    let e = |x: crate::gpu::GpuError| x.to_string();
+    let e = |x: crate::gpu::GpuError| BenchError::from(x);
     // bcc7 when the run has it, else its first 3D filter.
     let mut names: Vec<&str> = o.filters.iter().map(String::as_str).collect();
     names.sort_by_key(|n| *n != "bcc7");
@@ -60,13 +60,12 @@ pub fn rows(gpu: &Gpu, o: &BenchOptions, rounds: usize, progress: &dyn Fn(&str))
     };
     let (vol, tf, what, view) = match &o.mni {
         Some(path) => {
-            let head = Volume::load_nifti(std::path::Path::new(path)).map_err(|x| x.to_string())?;
-            let v = crate::scene::from_cartesian(&head, &d.filter.lattice, crate::scene::Conversion::Resample)
-                .map_err(|x| x.to_string())?;
+            let head = Volume::load_nifti(std::path::Path::new(path))?;
+            let v = crate::scene::from_cartesian(&head, &d.filter.lattice, crate::scene::Conversion::Resample)?;
             (v, TransferFunction::preset("mni-tissue"), "mni", (200.0, 15.0))
         }
         None => {
-            let v = LatticeVolume::marschner_lobb(&d.filter.lattice, [24, 24, 24]).map_err(|x| x.to_string())?;
+            let v = LatticeVolume::marschner_lobb(&d.filter.lattice, [24, 24, 24])?;
             (v, TransferFunction::preset("marschner-lobb"), "ml", (30.0, 25.0))
         }
     };
@@ -107,7 +106,7 @@ pub fn rows(gpu: &Gpu, o: &BenchOptions, rounds: usize, progress: &dyn Fn(&str))
         None
     } else {
         progress(&format!("{name} DVR Marschner-Lobb {size}^2: pre-integration quality (step {STEP} vs {FINE_STEP})"));
-        let ml = LatticeVolume::marschner_lobb(&d.filter.lattice, [40, 40, 40]).map_err(|x| x.to_string())?;
+        let ml = LatticeVolume::marschner_lobb(&d.filter.lattice, [40, 40, 40])?;
         let ml_scene = DvrScene::new(gpu, &d, &ml, Layout::Embedded, 4).map_err(e)?;
         let ml_o = DvrOptions { azimuth: 30.0, elevation: 25.0, ..base.clone() };
         Some(quality(&ml_scene, &TransferFunction::preset("marschner-lobb"), &ml_o)?)

@@ -4,7 +4,7 @@
 //! against the CPU reference of the exact walk.
 
 use super::stats::{median, round_order, Ratio};
-use super::BenchRow;
+use super::{BenchError, BenchRow};
 use crate::gpu::Gpu;
 use crate::render::iso::{self as render, HitMode, RenderOptions};
 use crate::volume::LatticeVolume;
@@ -24,15 +24,14 @@ pub const SHELL_ISO_FRACTION: f64 = 0.98;
 
 /// A thin spherical shell on the filter's lattice (edge samples per axis)
 /// and an iso-value near the spline's peak on it.
-pub fn thin_shell_scene(d: &Derivation, edge: usize) -> Result<(LatticeVolume, f32), String> {
+pub fn thin_shell_scene(d: &Derivation, edge: usize) -> Result<(LatticeVolume, f32), BenchError> {
     thin_shell_scene_at(d, edge, SHELL_ISO_FRACTION)
 }
 
 /// [`thin_shell_scene`] with the iso-value at `fraction` of the median
 /// spline value on the shell's ridge.
-pub fn thin_shell_scene_at(d: &Derivation, edge: usize, fraction: f64) -> Result<(LatticeVolume, f32), String> {
-    let vol = LatticeVolume::thin_shell(&d.filter.lattice, [edge; 3], SHELL_RADIUS, SHELL_WIDTH)
-        .map_err(|e| e.to_string())?;
+pub fn thin_shell_scene_at(d: &Derivation, edge: usize, fraction: f64) -> Result<(LatticeVolume, f32), BenchError> {
+    let vol = LatticeVolume::thin_shell(&d.filter.lattice, [edge; 3], SHELL_RADIUS, SHELL_WIDTH)?;
     let c = (edge as f64 - 1.0) / 2.0;
     let big_r = SHELL_RADIUS * edge as f64;
     let data = |j: &[i64]| vol.get(j) as f64;
@@ -86,13 +85,13 @@ pub fn rows(
     sizes: &[u32],
     rounds: usize,
     progress: &dyn Fn(&str),
-) -> Result<Vec<BenchRow>, String> {
+) -> Result<Vec<BenchRow>, BenchError> {
     let name = d.filter.name.as_str();
     let Some(&size) = sizes.iter().max() else { return Ok(vec![]) };
     if !FILTERS.contains(&name) {
         return Ok(vec![]);
     }
-    let e = |x: crate::gpu::GpuError| x.to_string();
+    let e = |x: crate::gpu::GpuError| BenchError::from(x);
     let mut out = Vec::new();
     progress(&format!("{name} render Marschner-Lobb {size}^2, exact hit vs step 0.25, {rounds} rounds"));
     let ro = |hit| RenderOptions { width: size, height: size, hit, step: 0.25, frames: 1, ..RenderOptions::default() };

@@ -13,8 +13,9 @@
 //! projected tetrahedra (`crate::render::pt`) on BCC and on CC data of the same
 //! sample count: ms per frame.
 
-use super::{program, references::MATTAUSCH_BILINEAR, stats::median, timed_rounds, Job};
+use super::{program, stats::median, timed_rounds, BenchError, Job};
 use crate::gpu::Gpu;
+use crate::references::MATTAUSCH_BILINEAR;
 use crate::render::dvr::transfer::TransferFunction;
 use crate::render::dvr::DvrOptions;
 use crate::render::pt::tets::Grid;
@@ -105,9 +106,9 @@ fn schemes() -> Vec<(&'static str, &'static str, &'static str, &'static str, &'s
     ]
 }
 
-fn derive(name: &str) -> Result<Derivation, String> {
-    let f = boxforge::spec::catalog::get(name).map_err(|e| e.to_string())?;
-    Derivation::new(&f).map_err(|e| e.to_string())
+fn derive(name: &str) -> Result<Derivation, BenchError> {
+    let f = boxforge::spec::catalog::get(name).map_err(BenchError::derive)?;
+    Derivation::new(&f).map_err(BenchError::derive)
 }
 
 /// Runs the measurements: `points` random points per scheme, `rounds`
@@ -119,8 +120,8 @@ pub fn run(
     pt_size: u32,
     mni: Option<&crate::volume::Volume>,
     progress: &dyn Fn(&str),
-) -> Result<LiteratureReport, String> {
-    let e = |x: crate::gpu::GpuError| x.to_string();
+) -> Result<LiteratureReport, BenchError> {
+    let e = |x: crate::gpu::GpuError| BenchError::from(x);
     let budget = 41f64.powi(3);
     let mut jobs = Vec::new();
     let mut rows = Vec::new();
@@ -128,9 +129,9 @@ pub fn run(
         progress(&format!("literature: {label}"));
         let d = derive(filter)?;
         let edge = crate::scene::matched_edge(&d.filter.lattice, budget);
-        let vol = LatticeVolume::marschner_lobb(&d.filter.lattice, [edge; 3]).map_err(|x| x.to_string())?;
-        let pts = super::points_in(&d, &vol, points, 31);
-        let m = emit(&d, &EmitOptions { kernels: false, ..Default::default() }).map_err(|x| x.to_string())?;
+        let vol = LatticeVolume::marschner_lobb(&d.filter.lattice, [edge; 3])?;
+        let pts = super::quality::points_in(&d, &vol, points, 31);
+        let m = emit(&d, &EmitOptions { kernels: false, ..Default::default() }).map_err(BenchError::emit)?;
         let call = if call.is_empty() { format!("{}_eval(p)", d.filter.name) } else { call.to_string() };
         let src = program(&m.source, extra, &format!("vec4<f32>({call}, 0.0, 0.0, 0.0)"));
         let dv = DeviceVolume::new(gpu, &vol, Layout::Embedded).map_err(e)?;
@@ -167,7 +168,7 @@ pub fn run(
     let mut mni_rows = Vec::new();
     if pt_size > 0 {
         let meshes = [Grid::Bcc, Grid::Cc]
-            .map(|g| Derivation::new(&g.linear_filter()).map_err(|x| x.to_string()))
+            .map(|g| Derivation::new(&g.linear_filter()).map_err(BenchError::derive))
             .into_iter()
             .collect::<Result<Vec<_>, _>>()?;
         let ml_tf = TransferFunction::preset("marschner-lobb");
@@ -187,7 +188,7 @@ pub fn run(
         for d in &meshes {
             progress(&format!("literature: projected tetrahedra on {} (Marschner-Lobb)", d.filter.lattice.name));
             let edge = crate::scene::matched_edge(&d.filter.lattice, budget);
-            let vol = LatticeVolume::marschner_lobb(&d.filter.lattice, [edge; 3]).map_err(|x| x.to_string())?;
+            let vol = LatticeVolume::marschner_lobb(&d.filter.lattice, [edge; 3])?;
             let (frame, stats) = pt_frame(d, &vol, &ml_tf, &o)?;
             pt.push(PtRow {
                 data: "Marschner-Lobb".into(),
@@ -204,7 +205,7 @@ pub fn run(
             let o = DvrOptions { step: 1.0, azimuth: 200.0, elevation: 15.0, ..o.clone() };
             let volume_on = |d: &Derivation| {
                 crate::scene::from_cartesian(head, &d.filter.lattice, crate::scene::Conversion::Resample)
-                    .map_err(|x| x.to_string())
+                    .map_err(BenchError::from)
             };
             let view = crate::render::iso::view_direction(o.azimuth, o.elevation);
             for (label, filter, call, _, _) in schemes() {
@@ -216,8 +217,8 @@ pub fn run(
                     // variant of this view, as `render` does.
                     let mut renderer = format!("{label}, ray cast");
                     if d.filter.view_dependent {
-                        let (f, _) = d.filter.view_variant(view).map_err(|x| x.to_string())?;
-                        d = Derivation::new(&f).map_err(|x| x.to_string())?;
+                        let (f, _) = d.filter.view_variant(view).map_err(BenchError::derive)?;
+                        d = Derivation::new(&f).map_err(BenchError::derive)?;
                         renderer.push_str(" (the view's variant)");
                     }
                     (crate::render::dvr::render(gpu, &d, &vol, Layout::Embedded, &tf, &o).map_err(e)?, renderer)

@@ -12,6 +12,7 @@
 //! (smoke). Its own section of BENCHMARKS.md, which the full bench keeps.
 
 use super::stats::{median, round_order, Ratio};
+use super::BenchError;
 use crate::gpu::Gpu;
 use crate::render::dvr::transfer::TransferFunction;
 use crate::render::dvr::{rms, DvrOptions, DvrScene};
@@ -96,20 +97,19 @@ pub fn run(
     size: u32,
     rounds: usize,
     progress: &dyn Fn(&str),
-) -> Result<PermReport, String> {
+) -> Result<PermReport, BenchError> {
     let small = head.map(|h| h.downsample(HEAD_DOWNSAMPLE));
     let mut report = PermReport { adapter: gpu.describe(), size, rounds: rounds.max(1), rows: vec![], refused: vec![] };
     for name in FILTERS {
         let d =
-            Derivation::new(&boxforge::spec::resolve(name).map_err(|x| x.to_string())?).map_err(|x| x.to_string())?;
+            Derivation::new(&boxforge::spec::resolve(name).map_err(BenchError::derive)?).map_err(BenchError::derive)?;
         let (vol, tfs, what, view) = match &small {
             Some(h) => {
-                let v = crate::scene::from_cartesian(h, &d.filter.lattice, crate::scene::Conversion::Resample)
-                    .map_err(|x| x.to_string())?;
+                let v = crate::scene::from_cartesian(h, &d.filter.lattice, crate::scene::Conversion::Resample)?;
                 (v, ["mni-tissue", "mni-opaque"], format!("mni_down{HEAD_DOWNSAMPLE}"), (200.0, 15.0))
             }
             None => {
-                let v = LatticeVolume::marschner_lobb(&d.filter.lattice, [24, 24, 24]).map_err(|x| x.to_string())?;
+                let v = LatticeVolume::marschner_lobb(&d.filter.lattice, [24, 24, 24])?;
                 (v, ["marschner-lobb", "marschner-lobb"], "ml".to_string(), (30.0, 25.0))
             }
         };
@@ -138,8 +138,8 @@ fn measure_filter(
     rounds: usize,
     progress: &dyn Fn(&str),
     report: &mut PermReport,
-) -> Result<(), String> {
-    let e = |x: crate::gpu::GpuError| x.to_string();
+) -> Result<(), BenchError> {
+    let e = |x: crate::gpu::GpuError| BenchError::from(x);
     let name = &d.filter.name;
     let scene = DvrScene::new(gpu, d, vol, Layout::Embedded, 4).map_err(e)?;
     let o = DvrOptions {

@@ -79,6 +79,18 @@ pub fn run(a: BenchArgs) -> Result<(), Failure> {
 }
 
 /// ` --smoke` and ` --runs R` as given, for the command line in the file.
+/// The library's error, naming the flag an input came from.
+impl From<bench::BenchError> for Failure {
+    fn from(e: bench::BenchError) -> Failure {
+        match e {
+            bench::BenchError::ExternalShader { path, reason } => {
+                Failure(format!("cannot read --wgsl {path}: {reason} (check the path)"))
+            }
+            e => Failure(e.to_string()),
+        }
+    }
+}
+
 fn smoke_runs(a: &BenchArgs, with_runs: bool) -> String {
     let mut flags = String::new();
     if a.smoke {

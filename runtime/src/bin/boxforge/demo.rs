@@ -100,7 +100,7 @@ pub fn run(out: &Path, size: u32, adapter: Option<&str>) -> Result<(), String> {
         }
         rms_vs_samples.push(Series { name: name.to_string(), points: curve });
         let edges = [12usize, 16, 24];
-        let errs = boxforge_runtime::bench::smooth_convergence(&gpu, &d, &edges)?;
+        let errs = boxforge_runtime::bench::smooth_convergence(&gpu, &d, &edges).map_err(|e| e.to_string())?;
         let pts: Vec<(f64, f64)> = edges.iter().zip(&errs).map(|(&n, &e)| (2.0 / n as f64, e)).collect();
         let order = log_slope(&pts).unwrap_or(f64::NAN);
         convergence.push(Series {

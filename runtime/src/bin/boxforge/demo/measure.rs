@@ -69,7 +69,7 @@ pub fn error_slice(gpu: &Gpu, d: &Derivation, ml: &LatticeVolume, size: u32) -> 
 pub fn evals_per_second(gpu: &Gpu, d: &Derivation, vol: &LatticeVolume) -> Result<f64, String> {
     let pts = boxforge_runtime::verify::random_points(d, vol, 1 << 18, 5);
     let dv = DeviceVolume::new(gpu, vol, Layout::Embedded).map_err(|e| e.to_string())?;
-    let rates = boxforge_runtime::bench::eval_rates(gpu, d, &dv, &pts, 3)?;
+    let rates = boxforge_runtime::bench::eval_rates(gpu, d, &dv, &pts, 3).map_err(|e| e.to_string())?;
     let mut r = rates;
     r.sort_by(f64::total_cmp);
     Ok(r[r.len() / 2])
