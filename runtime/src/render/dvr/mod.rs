@@ -119,13 +119,14 @@ impl DvrOptions {
     }
 }
 
-/// The DVR template for filter `name`; `perm` makes the ray caster look
-/// values up in the PERM cache (`<f>_perm_sample`, [`crate::render::perm`]) instead
-/// of calling `<f>_eval_grad` (the only difference in the text).
-pub(crate) fn dvr_template(name: &str, perm: bool) -> String {
+/// The DVR template for filter `name`; `lookup` makes the ray caster take
+/// its samples from `<f>_perm_sample`, a function the caller's module
+/// supplies (a cache built on top of DVR), instead of calling
+/// `<f>_eval_grad` (the only difference in the text).
+pub(crate) fn dvr_template(name: &str, lookup: bool) -> String {
     let mut env = minijinja::Environment::new();
     env.add_template("dvr", include_str!("../../../../templates/dvr.wgsl.j2")).expect("template");
-    env.get_template("dvr").unwrap().render(minijinja::context! { name => name, perm => perm }).expect("render")
+    env.get_template("dvr").unwrap().render(minijinja::context! { name => name, perm => lookup }).expect("render")
 }
 
 /// The emitted module with the DVR template appended.
@@ -133,9 +134,10 @@ pub fn shader_source(d: &Derivation, layout: Layout) -> Result<String, GpuError>
     shader_source_with(d, layout, false)
 }
 
-/// [`shader_source`], with `perm` the ray caster reading the PERM cache.
-pub(crate) fn shader_source_with(d: &Derivation, layout: Layout, perm: bool) -> Result<String, GpuError> {
-    Ok(format!("{}\n{}", filter_module(d, layout)?, dvr_template(&d.filter.name, perm)))
+/// [`shader_source`], with `lookup` the ray caster sampling through
+/// `<f>_perm_sample` ([`dvr_template`]), which the caller appends.
+pub(crate) fn shader_source_with(d: &Derivation, layout: Layout, lookup: bool) -> Result<String, GpuError> {
+    Ok(format!("{}\n{}", filter_module(d, layout)?, dvr_template(&d.filter.name, lookup)))
 }
 
 /// The emitted filter module (fetch, eval, eval_grad, min/max kernel).

@@ -43,7 +43,7 @@ impl<'a> DvrScene<'a> {
     }
 
     /// A scene whose ray caster evaluates a function other than `d`'s
-    /// emitted one (the hand-written schemes of [`crate::render::schemes`]): its
+    /// emitted one (hand-written schemes built on top of DVR): its
     /// module `source` (with `d`'s emitted module inside) defines
     /// `<name>_eval_grad` and the DVR template for `name`; blocks are
     /// bounded by `d`'s min/max kernel `<minmax>_minmax_main`, per cell and
@@ -101,7 +101,7 @@ impl<'a> DvrScene<'a> {
     }
 
     /// [`DvrScene::render_tables`] with the scene's ray caster, or another
-    /// one (the PERM cache's, [`crate::render::perm`]).
+    /// one (a cache's lookup built on top of DVR).
     pub(crate) fn render_with(
         &self,
         table: &Tf1d,
