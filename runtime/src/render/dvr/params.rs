@@ -1,6 +1,7 @@
 //! The uniform block of the DVR template and its values.
 
 use super::{DvrOptions, G0_OF_RANGE, LIGHT};
+use crate::render::camera::CameraUniform;
 use crate::render::dvr::transfer::Tf1d;
 use crate::render::iso::ray_params;
 use crate::volume::LatticeVolume;
@@ -10,18 +11,8 @@ use boxforge::derive::Derivation;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct DvrParams {
-    /// Camera, as [`crate::render::iso::RayParams`]: eye position.
-    pub eye: [f32; 4],
-    /// View direction.
-    pub forward: [f32; 4],
-    /// Half the image's width along the view plane.
-    pub right: [f32; 4],
-    /// Half the image's height along the view plane.
-    pub up: [f32; 4],
-    /// Valid box (the filter's support inside the volume): low corner.
-    pub box_lo: [f32; 4],
-    /// Valid box: high corner.
-    pub box_hi: [f32; 4],
+    /// Eye, view and valid box, as [`crate::render::iso::RayParams`]'s.
+    pub camera: CameraUniform,
     /// Table lo, (n_tf - 1) / (hi - lo), (n_pi - 1) / (hi - lo), step.
     pub tf: [f32; 4],
     /// Perspective, skip, pre-integrated (0/1), termination opacity.
@@ -41,12 +32,7 @@ pub fn dvr_params(d: &Derivation, vol: &LatticeVolume, table: &Tf1d, pi_size: us
     let r = ray_params(d, vol, &o.camera());
     let span = table.hi - table.lo;
     DvrParams {
-        eye: r.eye,
-        forward: r.forward,
-        right: r.right,
-        up: r.up,
-        box_lo: r.box_lo,
-        box_hi: r.box_hi,
+        camera: r.camera,
         tf: [table.lo, (table.entries.len() as f32 - 1.0) / span, (pi_size as f32 - 1.0) / span, o.step],
         mode: [o.perspective as i32 as f32, o.skip as i32 as f32, o.preintegrate as i32 as f32, o.termination],
         light: [LIGHT[0], LIGHT[1], LIGHT[2], G0_OF_RANGE * span],

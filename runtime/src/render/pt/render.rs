@@ -11,6 +11,7 @@
 use super::tets::{inverse_edges, Complexes, Grid};
 use crate::gpu::binding::{storage_entry, uniform_entry};
 use crate::gpu::{Gpu, GpuError};
+use crate::render::camera::CameraUniform;
 use crate::render::dvr::transfer::TransferFunction;
 use crate::render::dvr::{DvrOptions, BACKGROUND, G0_OF_RANGE, LIGHT};
 use crate::render::iso::{ray_params, Frame, RenderOptions};
@@ -43,12 +44,8 @@ pub enum Normals {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct PtParams {
-    pub eye: [f32; 4],
-    pub forward: [f32; 4],
-    pub right: [f32; 4],
-    pub up: [f32; 4],
-    pub box_lo: [f32; 4],
-    pub box_hi: [f32; 4],
+    /// Eye, view and valid box, as [`crate::render::iso::RayParams`]'s.
+    pub camera: CameraUniform,
     /// Table lo, unused, (n_pi - 1) / (hi - lo), step.
     pub tf: [f32; 4],
     /// Ambient, diffuse, specular, g0.
@@ -178,7 +175,7 @@ pub fn render(
             ..RenderOptions::default()
         },
     );
-    let forward = [r.forward[0] as f64, r.forward[1] as f64, r.forward[2] as f64];
+    let forward = [r.camera.forward[0] as f64, r.camera.forward[1] as f64, r.camera.forward[2] as f64];
     let ids = complexes.visible_back_to_front(&masks, forward);
     let order_ms = started.elapsed().as_secs_f64() * 1e3;
     let types = grid.types();
@@ -190,12 +187,7 @@ pub fn render(
         .collect();
     let span = table.hi - table.lo;
     let params = PtParams {
-        eye: r.eye,
-        forward: r.forward,
-        right: r.right,
-        up: r.up,
-        box_lo: r.box_lo,
-        box_hi: r.box_hi,
+        camera: r.camera,
         tf: [table.lo, 0.0, (pi.size as f32 - 1.0) / span, o.step],
         light: [LIGHT[0], LIGHT[1], LIGHT[2], G0_OF_RANGE * span],
         image: [
