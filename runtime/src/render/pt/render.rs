@@ -387,7 +387,11 @@ pub fn render(
 
 #[cfg(test)]
 mod tests {
-    use super::half_to_f32;
+    use super::{half_to_f32, PtParams};
+    use crate::render::camera::CameraUniform;
+    use crate::render::dvr::DvrParams;
+    use crate::render::iso::RayParams;
+    use std::mem::{offset_of, size_of};
 
     #[test]
     fn halves_decode() {
@@ -396,5 +400,32 @@ mod tests {
         assert_eq!(half_to_f32(0xc000), -2.0);
         assert_eq!(half_to_f32(0x0001), 2f32.powi(-24));
         assert_eq!(half_to_f32(0x7bff), 65504.0);
+    }
+
+    /// The field names of `struct <name>` in a template, checking that each
+    /// is a vec4 (16 bytes, so offsets are 16 x position, no padding).
+    fn vec4_fields(template: &str, name: &str) -> Vec<String> {
+        let body = template.split(&format!("struct {name} {{")).nth(1).unwrap().split('}').next().unwrap();
+        let fields: Vec<&str> = body.lines().map(str::trim).filter(|l| !l.is_empty() && !l.starts_with("//")).collect();
+        assert!(fields.iter().all(|f| f.ends_with("vec4<f32>,") || f.ends_with("vec4<i32>,")), "{name}: {fields:?}");
+        fields.iter().map(|f| f.split(':').next().unwrap().to_string()).collect()
+    }
+
+    #[test]
+    fn every_uniform_block_starts_with_the_camera_block() {
+        assert_eq!(size_of::<CameraUniform>(), 6 * 16);
+        let camera = ["eye", "forward", "right", "up", "box_lo", "box_hi"];
+        let raycast = include_str!("../../../../templates/raycast.wgsl.j2");
+        let dvr = include_str!("../../../../templates/dvr.wgsl.j2");
+        for (template, name, offset, size) in [
+            (raycast, "{{ name }}_RayParams", offset_of!(RayParams, camera), size_of::<RayParams>()),
+            (dvr, "{{ name }}_DvrParams", offset_of!(DvrParams, camera), size_of::<DvrParams>()),
+            (super::super::SHADER, "PtParams", offset_of!(PtParams, camera), size_of::<PtParams>()),
+        ] {
+            let fields = vec4_fields(template, name);
+            assert_eq!(fields[..6], camera, "{name}");
+            assert_eq!(offset, 0, "{name}");
+            assert_eq!(fields.len() * 16, size, "{name}");
+        }
     }
 }
