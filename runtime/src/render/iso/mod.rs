@@ -97,15 +97,20 @@ impl Default for RenderOptions {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct RayParams {
-    pub eye: [f32; 4],
-    pub forward: [f32; 4],
-    pub right: [f32; 4],
-    pub up: [f32; 4],
-    pub box_lo: [f32; 4],
-    pub box_hi: [f32; 4],
+    /// Eye, view and valid box (the block every ray caster starts with).
+    pub camera: crate::render::camera::CameraUniform,
     pub shade: [f32; 4],
     pub image: [i32; 4],
     pub blocks: [i32; 4],
+}
+
+/// `p.eye` and the other camera fields read through to [`RayParams::camera`]
+/// (the iso code written before the camera block was shared).
+impl std::ops::Deref for RayParams {
+    type Target = crate::render::camera::CameraUniform;
+    fn deref(&self) -> &Self::Target {
+        &self.camera
+    }
 }
 
 pub struct Frame {
@@ -117,11 +122,6 @@ pub struct Frame {
     pub ms_per_frame: f64,
     /// Fraction of blocks whose bounds exclude the iso-value.
     pub empty_blocks: f64,
-}
-
-/// The uniform layout of a direction or position: xyz and a zero w.
-fn v4(a: Vec3) -> [f32; 4] {
-    a.extend(0.0).to_array()
 }
 
 /// The xyz of a uniform vector, widened to f64 (exactly).
@@ -163,38 +163,15 @@ pub fn ray_params(d: &Derivation, vol: &LatticeVolume, o: &RenderOptions) -> Ray
 /// reaches `radius` cells (what a renderer keeps after the upload).
 pub(crate) fn ray_params_for(radius: usize, dims: [usize; 3], o: &RenderOptions) -> RayParams {
     let (lo, hi) = box_of(radius, dims);
-    let vol_dims = dims;
-    let center = (lo + hi) * 0.5;
-    let radius = 0.5 * (hi - lo).length();
-    let forward = Vec3::from_array(view_direction(o.azimuth, o.elevation).map(|x| x as f32));
-    let world_up = if o.elevation.to_radians().cos().abs() < 1e-3 { Vec3::Y } else { Vec3::Z };
-    // Divide by the (guarded) length rather than glam's normalize, which
-    // multiplies by its reciprocal and rounds differently.
-    let right = {
-        let c = forward.cross(world_up);
-        c / c.length().max(1e-20)
-    };
-    let up = right.cross(forward);
-    let aspect = o.width as f32 / o.height as f32;
-    let (eye, half) = if o.perspective {
-        let dist = radius * 2.6;
-        (center - forward * dist, (22.5f32).to_radians().tan())
-    } else {
-        (center - forward * (radius * 2.0), radius * 1.05)
-    };
+    let camera = crate::render::Camera { azimuth: o.azimuth, elevation: o.elevation, perspective: o.perspective };
     let blocks = [
-        (vol_dims[0] as i32 + o.block - 1) / o.block,
-        (vol_dims[1] as i32 + o.block - 1) / o.block,
-        (vol_dims[2] as i32 + o.block - 1) / o.block,
+        (dims[0] as i32 + o.block - 1) / o.block,
+        (dims[1] as i32 + o.block - 1) / o.block,
+        (dims[2] as i32 + o.block - 1) / o.block,
         0,
     ];
     RayParams {
-        eye: v4(eye),
-        forward: v4(forward),
-        right: v4(right * (half * aspect)),
-        up: v4(up * half),
-        box_lo: v4(lo),
-        box_hi: v4(hi),
+        camera: crate::render::camera::CameraUniform::orbit(&camera, lo.to_array(), hi.to_array(), o.width, o.height),
         shade: [o.iso, o.step, o.perspective as i32 as f32, o.skip as i32 as f32],
         image: [o.width as i32, o.height as i32, o.block, 0],
         blocks,

@@ -11,6 +11,7 @@
 use super::tets::{inverse_edges, Complexes, Grid};
 use crate::gpu::binding::{storage_entry, uniform_entry};
 use crate::gpu::{Gpu, GpuError};
+use crate::render::camera::CameraUniform;
 use crate::render::dvr::transfer::TransferFunction;
 use crate::render::dvr::{DvrOptions, BACKGROUND, G0_OF_RANGE, LIGHT};
 use crate::render::iso::{ray_params, Frame, RenderOptions};
@@ -43,12 +44,8 @@ pub enum Normals {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct PtParams {
-    pub eye: [f32; 4],
-    pub forward: [f32; 4],
-    pub right: [f32; 4],
-    pub up: [f32; 4],
-    pub box_lo: [f32; 4],
-    pub box_hi: [f32; 4],
+    /// Eye, view and valid box, as [`crate::render::iso::RayParams`]'s.
+    pub camera: CameraUniform,
     /// Table lo, unused, (n_pi - 1) / (hi - lo), step.
     pub tf: [f32; 4],
     /// Ambient, diffuse, specular, g0.
@@ -178,7 +175,7 @@ pub fn render(
             ..RenderOptions::default()
         },
     );
-    let forward = [r.forward[0] as f64, r.forward[1] as f64, r.forward[2] as f64];
+    let forward = [r.camera.forward[0] as f64, r.camera.forward[1] as f64, r.camera.forward[2] as f64];
     let ids = complexes.visible_back_to_front(&masks, forward);
     let order_ms = started.elapsed().as_secs_f64() * 1e3;
     let types = grid.types();
@@ -190,12 +187,7 @@ pub fn render(
         .collect();
     let span = table.hi - table.lo;
     let params = PtParams {
-        eye: r.eye,
-        forward: r.forward,
-        right: r.right,
-        up: r.up,
-        box_lo: r.box_lo,
-        box_hi: r.box_hi,
+        camera: r.camera,
         tf: [table.lo, 0.0, (pi.size as f32 - 1.0) / span, o.step],
         light: [LIGHT[0], LIGHT[1], LIGHT[2], G0_OF_RANGE * span],
         image: [
@@ -395,7 +387,11 @@ pub fn render(
 
 #[cfg(test)]
 mod tests {
-    use super::half_to_f32;
+    use super::{half_to_f32, PtParams};
+    use crate::render::camera::CameraUniform;
+    use crate::render::dvr::DvrParams;
+    use crate::render::iso::RayParams;
+    use std::mem::{offset_of, size_of};
 
     #[test]
     fn halves_decode() {
@@ -404,5 +400,32 @@ mod tests {
         assert_eq!(half_to_f32(0xc000), -2.0);
         assert_eq!(half_to_f32(0x0001), 2f32.powi(-24));
         assert_eq!(half_to_f32(0x7bff), 65504.0);
+    }
+
+    /// The field names of `struct <name>` in a template, checking that each
+    /// is a vec4 (16 bytes, so offsets are 16 x position, no padding).
+    fn vec4_fields(template: &str, name: &str) -> Vec<String> {
+        let body = template.split(&format!("struct {name} {{")).nth(1).unwrap().split('}').next().unwrap();
+        let fields: Vec<&str> = body.lines().map(str::trim).filter(|l| !l.is_empty() && !l.starts_with("//")).collect();
+        assert!(fields.iter().all(|f| f.ends_with("vec4<f32>,") || f.ends_with("vec4<i32>,")), "{name}: {fields:?}");
+        fields.iter().map(|f| f.split(':').next().unwrap().to_string()).collect()
+    }
+
+    #[test]
+    fn every_uniform_block_starts_with_the_camera_block() {
+        assert_eq!(size_of::<CameraUniform>(), 6 * 16);
+        let camera = ["eye", "forward", "right", "up", "box_lo", "box_hi"];
+        let raycast = include_str!("../../../../templates/raycast.wgsl.j2");
+        let dvr = include_str!("../../../../templates/dvr.wgsl.j2");
+        for (template, name, offset, size) in [
+            (raycast, "{{ name }}_RayParams", offset_of!(RayParams, camera), size_of::<RayParams>()),
+            (dvr, "{{ name }}_DvrParams", offset_of!(DvrParams, camera), size_of::<DvrParams>()),
+            (super::super::SHADER, "PtParams", offset_of!(PtParams, camera), size_of::<PtParams>()),
+        ] {
+            let fields = vec4_fields(template, name);
+            assert_eq!(fields[..6], camera, "{name}");
+            assert_eq!(offset, 0, "{name}");
+            assert_eq!(fields.len() * 16, size, "{name}");
+        }
     }
 }

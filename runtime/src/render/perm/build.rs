@@ -1,0 +1,260 @@
+//! The preprocessing: cell bounds, selection, peeling, the index volume and
+//! the density and gradient passes on the device; the cache's ray caster.
+
+use super::texture::CacheWords;
+use super::{build_index, formula, peel, select_cells, Counts, Index, Memory, Quant, MAX_BYTES, MAX_ROW};
+use crate::gpu::binding::{storage_entry, storage_texture_entry, texture_entry, uniform_entry};
+use crate::gpu::{Gpu, GpuError};
+use crate::render::blocks::block_bounds;
+use crate::render::dvr::transfer::Tf1d;
+use crate::render::dvr::{caster_entries, filter_module, shader_source_with, DvrScene};
+use std::time::Instant;
+use wgpu::util::DeviceExt;
+
+/// The uniform block of templates/perm.wgsl.j2.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct PermParams {
+    dims: [i32; 4],
+    quant: [u32; 4],
+    scale: [f32; 4],
+    tex: [u32; 4],
+}
+
+/// The uniform block of templates/perm_build.wgsl.j2.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct BuildParams {
+    dims: [u32; 4],
+    counts: [u32; 4],
+    scale: [f32; 4],
+    tex: [u32; 4],
+}
+
+fn template(file: &'static str, name: &str) -> String {
+    let mut env = minijinja::Environment::new();
+    env.add_template("t", file).expect("template");
+    env.get_template("t").unwrap().render(minijinja::context! { name => name }).expect("render")
+}
+
+/// A PERM cache on the device for one scene, transfer function, step and
+/// pre-integration choice, with its ray-casting pipeline.
+pub struct PermCache {
+    /// The counts the memory formula applies to.
+    pub counts: Counts,
+    /// Visible cells (before the dilation), x fastest.
+    pub visible: Vec<bool>,
+    /// Bytes per part: the allocated buffers (gradient magnitudes and signs
+    /// share one buffer of words, split 3 : 1).
+    pub memory: Memory,
+    /// Wall time of the preprocessing: cell bounds, selection, index, the
+    /// density and gradient passes (ms).
+    pub preprocess_ms: f64,
+    /// Largest |gradient component| (the gradient bytes' full scale).
+    pub gmax: f32,
+    /// Candidate cells dropped by opaque-boundary peeling.
+    pub peeled: u64,
+    /// The termination opacity the peeling assumed (renders may not exceed it).
+    pub peel_termination: Option<f32>,
+    /// The index volume and summed-area table, as uploaded.
+    pub index: Index,
+    pub(super) step: f32,
+    pub(super) preintegrate: bool,
+    pub(super) table: Vec<[f32; 4]>,
+    pub(super) pipeline: wgpu::ComputePipeline,
+    pub(super) bgl: wgpu::BindGroupLayout,
+    pub(super) params: wgpu::Buffer,
+    /// Index volume and summed-area table.
+    pub(super) buffers: [wgpu::Buffer; 2],
+    /// Densities and gradients.
+    pub(super) words: [CacheWords; 2],
+}
+
+/// Workgroups (x, y) of 64 threads covering `threads`, and threads per row.
+fn grid(threads: u64) -> ((u32, u32, u32), u32) {
+    let groups = threads.div_ceil(64).max(1);
+    let gx = groups.min(65535);
+    ((gx as u32, groups.div_ceil(gx) as u32, 1), (gx * 64) as u32)
+}
+
+impl PermCache {
+    /// Preprocesses `scene` for `table` and segments of `step` (dilation
+    /// ceil(step) with pre-integration).
+    pub fn build(
+        scene: &DvrScene,
+        table: &Tf1d,
+        quant: Quant,
+        step: f32,
+        preintegrate: bool,
+    ) -> Result<PermCache, GpuError> {
+        Self::build_peeled(scene, table, quant, step, preintegrate, None)
+    }
+
+    /// [`PermCache::build`], with opaque-boundary peeling ([`peel`]) for
+    /// renders whose termination opacity is at most `peel` when given.
+    pub fn build_peeled(
+        scene: &DvrScene,
+        table: &Tf1d,
+        quant: Quant,
+        step: f32,
+        preintegrate: bool,
+        peel_termination: Option<f32>,
+    ) -> Result<PermCache, GpuError> {
+        let start = Instant::now();
+        let (gpu, d, vol) = (scene.gpu, scene.d, scene.vol);
+        let dev = &gpu.device;
+        let name = &d.filter.name;
+        let dims = vol.dims;
+        if dims[0] > MAX_ROW {
+            return Err(GpuError::Runtime(format!(
+                "--cache perm: the volume is {} cells along x, over the {MAX_ROW} a 15-bit row index addresses",
+                dims[0]
+            )));
+        }
+        let layout = scene.dv.layout;
+        let build_src = format!(
+            "{}\n{}",
+            filter_module(d, layout)?,
+            template(include_str!("../../../../templates/perm_build.wgsl.j2"), name)
+        );
+        let build = gpu.compile(&format!("{name}.perm_build.wgsl"), &build_src)?;
+        let bounds = block_bounds(gpu, &build, name, &scene.dv, dims, 1)?;
+        let radius = if preintegrate { step.ceil() as i32 } else { 0 };
+        let (visible, mut candidate) = select_cells(&bounds, dims, table, radius);
+        let peeled = peel_termination.map_or(0, |t| peel(&bounds, dims, table, step, t, &mut candidate));
+        let index = build_index(&candidate, &bounds, dims, table);
+        let counts = Counts {
+            cells: (dims[0] * dims[1] * dims[2]) as u64,
+            rows: (dims[1] * dims[2]) as u64,
+            candidates: index.cells.len() as u64,
+            quant,
+        };
+        let need = formula(&counts);
+        let limit = MAX_BYTES;
+        if need.total() > limit {
+            return Err(GpuError::Runtime(format!(
+                "--qc {} --qc-grad {}: the PERM cache of {} candidate cells needs {}, over the limit of {limit} bytes; use a smaller --qc or --qc-grad",
+                quant.density,
+                quant.gradient,
+                counts.candidates,
+                need.describe()
+            )));
+        }
+        let binding = gpu.limits().max_storage_buffer_binding_size.min(gpu.limits().max_buffer_size);
+        if need.index_volume > binding {
+            return Err(GpuError::Runtime(format!(
+                "--cache perm: the index volume of {} cells needs {} bytes, over this device's storage-binding limit of {binding} bytes; downsample the volume",
+                counts.cells, need.index_volume
+            )));
+        }
+        let span = table.hi - table.lo;
+        let (n3, m3) = (quant.density.pow(3) as u64, quant.gradient.pow(3) as u64);
+        let (nd, ng) = (counts.candidates * n3, counts.candidates * m3);
+        let iv = gpu.storage_buffer("perm index volume", bytemuck::cast_slice(&index.words), false);
+        let sat = gpu.storage_buffer("perm summed-area table", bytemuck::cast_slice(&index.sat), false);
+        let cells_buf = gpu.storage_buffer("perm cells", bytemuck::cast_slice(&index.cells), false);
+        let db = CacheWords::new(gpu, "PERM densities", nd.div_ceil(2))?;
+        let gb = CacheWords::new(gpu, "PERM gradients", ng)?;
+        let gmax_buf = gpu.storage_buffer("perm gmax", &[0u8; 4], true);
+        let bgl_b = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("perm build"),
+            entries: &[uniform_entry(0), storage_entry(1, true), storage_texture_entry(2), storage_entry(3, false)],
+        });
+        let pass = |entry: &str, out: &CacheWords, n: u32, threads: u64, positions: u64, scale: [f32; 4]| {
+            let (groups, row) = grid(threads);
+            let p = BuildParams {
+                dims: [dims[0] as u32, dims[1] as u32, dims[2] as u32, counts.candidates as u32],
+                counts: [n, n.pow(3), positions as u32, row],
+                scale,
+                tex: [out.extent[0], out.extent[1], 0, 0],
+            };
+            let pbuf = gpu.uniform_buffer("perm build params", bytemuck::bytes_of(&p));
+            let bg = dev.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("perm build"),
+                layout: &bgl_b,
+                entries: &[
+                    wgpu::BindGroupEntry { binding: 0, resource: pbuf.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 1, resource: cells_buf.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&out.view) },
+                    wgpu::BindGroupEntry { binding: 3, resource: gmax_buf.as_entire_binding() },
+                ],
+            });
+            let pipe = gpu.pipeline(entry, &build, &[&scene.bgl_s, &bgl_b], &format!("{name}_{entry}"))?;
+            if threads > 0 {
+                gpu.dispatch(entry, &pipe, &[&scene.bg_s, &bg], groups)?;
+            }
+            gpu.wait()
+        };
+        let units = 65535.0 / span;
+        pass("perm_density_main", &db, quant.density, nd.div_ceil(2), nd, [table.lo, units, 0.0, 0.0])?;
+        let dummy = CacheWords::new(gpu, "PERM unused", 1)?;
+        pass("perm_gmax_main", &dummy, quant.gradient, ng, ng, [0.0; 4])?;
+        let gmax = f32::from_bits(u32::from_le_bytes(gpu.read_buffer(&gmax_buf)?[..4].try_into().unwrap()));
+        let gscale = if gmax > 0.0 { 255.0 / gmax } else { 0.0 };
+        pass("perm_gradient_main", &gb, quant.gradient, ng, ng, [0.0, 0.0, gscale, 0.0])?;
+        let preprocess_ms = start.elapsed().as_secs_f64() * 1e3;
+
+        let render_src = format!(
+            "{}\n{}",
+            shader_source_with(d, layout, true)?,
+            template(include_str!("../../../../templates/perm.wgsl.j2"), name)
+        );
+        let shader = gpu.compile(&format!("{name}.dvr_perm.wgsl"), &render_src)?;
+        let mut entries = caster_entries();
+        entries.extend([
+            uniform_entry(5),
+            storage_entry(6, true),
+            storage_entry(7, true),
+            texture_entry(8),
+            texture_entry(9),
+        ]);
+        let bgl = dev
+            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("dvr perm"), entries: &entries });
+        let pipeline = gpu.pipeline("dvr perm", &shader, &[&scene.bgl_s, &bgl], &format!("{name}_dvr_main"))?;
+        let params = PermParams {
+            dims: [dims[0] as i32, dims[1] as i32, dims[2] as i32, 0],
+            quant: [quant.density, quant.gradient, n3 as u32, m3 as u32],
+            scale: [table.lo, span / 65535.0, span / 32767.0, gmax / 255.0],
+            tex: [db.extent[0], db.extent[1], gb.extent[0], gb.extent[1]],
+        };
+        let params = dev.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("perm params"),
+            contents: bytemuck::bytes_of(&params),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let g = gb.bytes();
+        let memory = Memory {
+            index_volume: iv.size(),
+            summed_area: sat.size(),
+            density: db.bytes(),
+            gradient: g / 4 * 3,
+            sign: g / 4,
+        };
+        Ok(PermCache {
+            counts,
+            visible,
+            memory,
+            preprocess_ms,
+            gmax,
+            peeled,
+            peel_termination,
+            index,
+            step,
+            preintegrate,
+            table: table.entries.clone(),
+            pipeline,
+            bgl,
+            params,
+            buffers: [iv, sat],
+            words: [db, gb],
+        })
+    }
+
+    /// The densities as stored (16-bit fixed point, decoded to values).
+    pub fn densities(&self, gpu: &Gpu, table: &Tf1d) -> Result<Vec<f32>, GpuError> {
+        let words = self.words[0].read(gpu)?;
+        let unit = (table.hi - table.lo) / 65535.0;
+        let n = self.counts.candidates as usize * self.counts.quant.density.pow(3) as usize;
+        Ok((0..n).map(|m| table.lo + unit * ((words[m >> 1] >> ((m & 1) << 4)) & 0xffff) as f32).collect())
+    }
+}
