@@ -27,7 +27,7 @@ impl Camera {
     /// The camera's forward direction (from the eye toward the volume):
     /// what view-dependent filters follow.
     pub fn view_direction(&self) -> [f64; 3] {
-        crate::render::iso::view_direction(self.azimuth, self.elevation)
+        view_direction(self.azimuth, self.elevation)
     }
 }
 
@@ -105,4 +105,12 @@ pub struct Target<'a> {
     pub format: wgpu::TextureFormat,
     pub width: u32,
     pub height: u32,
+}
+
+/// The camera's forward direction (from the eye toward the volume) for an
+/// azimuth and elevation in degrees: what view-dependent filters follow.
+pub fn view_direction(azimuth: f32, elevation: f32) -> [f64; 3] {
+    let (az, el) = (azimuth.to_radians(), elevation.to_radians());
+    let toward_eye = Vec3::new(el.cos() * az.cos(), el.cos() * az.sin(), el.sin());
+    (-toward_eye).to_array().map(f64::from)
 }

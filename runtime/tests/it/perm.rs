@@ -244,7 +244,7 @@ fn bad_cache_options_are_one_line_and_exit_2_before_any_gpu_work() {
         (&["--mode", "dvr", "--tf", "marschner-lobb", "--cache", "perm", "--qc-grad", "0"][..], "--qc-grad 0"),
         (&["--mode", "dvr", "--tf", "marschner-lobb", "--cache", "perm", "--qc", "1000"][..], "6000000000 bytes"),
         (&["--cache", "perm"][..], "--mode iso"),
-        (&["--mode", "dvr", "--tf", "marschner-lobb", "--cache", "lru"][..], "--cache lru"),
+        (&["--mode", "dvr", "--tf", "marschner-lobb", "--cache", "lru"][..], "'lru' for '--cache"),
         (&["--mode", "dvr", "--tf", "marschner-lobb", "--qc", "5"][..], "add --cache perm"),
         (&["--mode", "dvr", "--tf", "marschner-lobb", "--peel"][..], "--peel peels the PERM cache"),
     ] {

@@ -36,7 +36,8 @@ pub fn cpu_render_with_depth(d: &Derivation, vol: &LatticeVolume, o: &RenderOpti
                         for x in 0..w {
                             let sx = (x as f64 + 0.5) / w as f64 * 2.0 - 1.0;
                             let sy = 1.0 - (y as f64 + 0.5) / h as f64 * 2.0;
-                            let (eye, fw, rt, up) = (d3(p.eye), d3(p.forward), d3(p.right), d3(p.up));
+                            let (eye, fw, rt, up) =
+                                (d3(p.camera.eye), d3(p.camera.forward), d3(p.camera.right), d3(p.camera.up));
                             let (origin, dir) = if o.perspective {
                                 let dv = fw + sx * rt + sy * up;
                                 (eye, dv / dv.length())
@@ -211,8 +212,8 @@ fn cast_ray(
     let at = |t: f64| origin + t * dir;
     let (mut t0, mut t1) = (0f64, f64::INFINITY);
     for i in 0..3 {
-        let a = (p.box_lo[i] as f64 - origin[i]) / dir[i];
-        let b = (p.box_hi[i] as f64 - origin[i]) / dir[i];
+        let a = (p.camera.box_lo[i] as f64 - origin[i]) / dir[i];
+        let b = (p.camera.box_hi[i] as f64 - origin[i]) / dir[i];
         t0 = t0.max(a.min(b));
         t1 = t1.min(a.max(b));
     }
@@ -231,7 +232,7 @@ fn cast_ray(
             if n.dot(dir) > 0.0 {
                 n = -n;
             }
-            let up = d3(p.up);
+            let up = d3(p.camera.up);
             let ul = up.length().max(1e-20);
             let l = {
                 let v = -dir + 0.35 * up / ul;

@@ -104,15 +104,6 @@ pub struct RayParams {
     pub blocks: [i32; 4],
 }
 
-/// `p.eye` and the other camera fields read through to [`RayParams::camera`]
-/// (the iso code written before the camera block was shared).
-impl std::ops::Deref for RayParams {
-    type Target = crate::render::camera::CameraUniform;
-    fn deref(&self) -> &Self::Target {
-        &self.camera
-    }
-}
-
 pub struct Frame {
     pub width: u32,
     pub height: u32,
@@ -147,13 +138,7 @@ pub fn valid_box(d: &Derivation, vol: &LatticeVolume) -> ([f32; 3], [f32; 3]) {
     (lo.to_array(), hi.to_array())
 }
 
-/// The camera's forward direction (from the eye toward the volume) for an
-/// azimuth and elevation in degrees: what view-dependent filters follow.
-pub fn view_direction(azimuth: f32, elevation: f32) -> [f64; 3] {
-    let (az, el) = (azimuth.to_radians(), elevation.to_radians());
-    let toward_eye = Vec3::new(el.cos() * az.cos(), el.cos() * az.sin(), el.sin());
-    (-toward_eye).to_array().map(f64::from)
-}
+pub use crate::render::camera::view_direction;
 
 pub fn ray_params(d: &Derivation, vol: &LatticeVolume, o: &RenderOptions) -> RayParams {
     ray_params_for(crate::verify::support_radius(d), vol.dims, o)
