@@ -9,7 +9,8 @@
 
 use boxforge::derive::Derivation;
 use boxforge_runtime::gpu::Gpu;
-use boxforge_runtime::render::{Camera, IsoOptions, IsoRenderer, Target};
+use boxforge_runtime::render::dvr::transfer::TransferFunction;
+use boxforge_runtime::render::{Camera, DvrLook, DvrRenderer, IsoOptions, IsoRenderer, Target};
 use boxforge_runtime::volume::{DeviceVolume, LatticeVolume};
 
 /// The host's colour format: a window surface's usual one.
@@ -40,6 +41,9 @@ pub fn host_device() -> Result<(wgpu::Device, wgpu::Queue), String> {
 pub struct Scene {
     pub gpu: Gpu,
     pub renderer: IsoRenderer,
+    /// The same volume rendered directly, through the `marschner-lobb`
+    /// transfer function (sharing the uploaded samples).
+    pub dvr: DvrRenderer,
 }
 
 impl Scene {
@@ -55,16 +59,23 @@ impl Scene {
             LatticeVolume::marschner_lobb(&d.filter.lattice, [edge, edge, edge]).map_err(|e| e.to_string())?;
         let volume = DeviceVolume::new(&gpu, &samples, boxforge::emit::Layout::Embedded).map_err(|e| e.to_string())?;
         let renderer = IsoRenderer::new(&gpu, &d, &volume, IsoOptions::default()).map_err(|e| e.to_string())?;
-        Ok(Scene { gpu, renderer })
+        let tf = TransferFunction::preset("marschner-lobb");
+        let dvr = DvrRenderer::new(&gpu, &d, &volume, &tf, DvrLook::default()).map_err(|e| e.to_string())?;
+        Ok(Scene { gpu, renderer, dvr })
     }
 
     /// One frame into `view` (a `size` x `size` texture of [`FORMAT`]), in
-    /// the host's encoder, submitted by the host.
-    pub fn frame(&mut self, view: &wgpu::TextureView, size: u32, camera: &Camera) -> Result<(), String> {
+    /// the host's encoder, submitted by the host: the isosurface, or with
+    /// `direct` the volume rendering.
+    pub fn frame(&mut self, view: &wgpu::TextureView, size: u32, camera: &Camera, direct: bool) -> Result<(), String> {
         let mut encoder =
             self.gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
         let target = Target { view, format: FORMAT, width: size, height: size };
-        self.renderer.encode(&mut encoder, &target, camera).map_err(|e| e.to_string())?;
+        if direct {
+            self.dvr.encode(&mut encoder, &target, camera).map_err(|e| e.to_string())?;
+        } else {
+            self.renderer.encode(&mut encoder, &target, camera).map_err(|e| e.to_string())?;
+        }
         self.gpu.queue.submit([encoder.finish()]);
         Ok(())
     }

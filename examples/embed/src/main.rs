@@ -16,7 +16,7 @@ fn main() {
         let target = texture(&device, size, wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC);
         let view = target.create_view(&Default::default());
         let mut scene = Scene::new(device.clone(), queue.clone())?;
-        scene.frame(&view, size, &Camera::default())?;
+        scene.frame(&view, size, &Camera::default(), false)?;
         let rgba = read_rgba(&device, &queue, &target, size);
         let file = std::fs::File::create(&out).map_err(|e| format!("cannot write {out}: {e}"))?;
         let mut enc = png::Encoder::new(std::io::BufWriter::new(file), size, size);

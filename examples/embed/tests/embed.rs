@@ -35,43 +35,59 @@ fn read_png(path: &std::path::Path) -> Vec<u8> {
     buf
 }
 
-#[test]
-fn a_host_device_renders_boxforge_renders_image_into_a_surface_like_target() {
-    let (device, queue) = host_device().unwrap_or_else(|e| panic!("{e}"));
-    let mut scene = Scene::new(device.clone(), queue.clone()).unwrap_or_else(|e| panic!("{e}"));
-    // What a window surface gives: render attachment, nothing else. Any use
-    // beyond that is a validation error, caught here.
-    let surface_like = texture(&device, SIZE, wgpu::TextureUsages::RENDER_ATTACHMENT);
-    let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-    scene.frame(&surface_like.create_view(&Default::default()), SIZE, &camera()).unwrap();
-    device.poll(wgpu::PollType::wait_indefinitely()).unwrap();
-    assert!(pollster::block_on(scope.pop()).is_none(), "the renderer used the target beyond RENDER_ATTACHMENT");
-    // The same frame into a target the host can read back.
-    let readable = texture(&device, SIZE, wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC);
-    scene.frame(&readable.create_view(&Default::default()), SIZE, &camera()).unwrap();
-    let ours = read_rgba(&device, &queue, &readable, SIZE);
-
-    let dir = std::env::temp_dir().join(format!("boxforge-embed-{}", std::process::id()));
+/// Runs `boxforge render` with `args` at SIZE and the test's view; its image.
+fn cli_image(args: &[&str]) -> Vec<u8> {
+    let dir = std::env::temp_dir().join(format!("boxforge-embed-{}-{}", std::process::id(), args.len()));
     std::fs::create_dir_all(&dir).unwrap();
     let png = dir.join("cli.png");
     let size = SIZE.to_string();
     let out = std::process::Command::new(boxforge_bin())
-        .args(["render", "--filter", "bcc7", "--volume", "ml:41", "--iso", "0.5", "--view", "30,60", "--size", &size])
+        .args(["render", "--filter", "bcc7", "--volume", "ml:41", "--view", "30,60", "--size", &size])
+        .args(args)
         .arg("--out")
         .arg(&png)
         .output()
         .unwrap();
     assert!(out.status.success(), "boxforge render failed: {}", String::from_utf8_lossy(&out.stderr));
-    let cli = read_png(&png);
+    let image = read_png(&png);
     let _ = std::fs::remove_dir_all(&dir);
+    image
+}
 
-    let pixels = (SIZE * SIZE) as usize;
-    let hits = ours.chunks(4).filter(|p| p[..3] != MISS).count();
-    assert!(hits * 5 >= pixels, "only {hits} of {pixels} pixels hit the surface");
-    let sq: f64 = ours.iter().zip(&cli).map(|(&a, &b)| (a as f64 - b as f64).powi(2)).sum();
-    let rms = (sq / ours.len() as f64).sqrt();
-    eprintln!("{FORMAT:?} target vs boxforge render: RMS {rms:.3}/255, {hits} of {pixels} pixels on the surface");
-    assert!(rms < 0.5, "RMS {rms}/255 against boxforge render");
+fn rms(a: &[u8], b: &[u8]) -> f64 {
+    let sq: f64 = a.iter().zip(b).map(|(&x, &y)| (x as f64 - y as f64).powi(2)).sum();
+    (sq / a.len() as f64).sqrt()
+}
+
+#[test]
+fn a_host_device_renders_boxforge_renders_images_into_a_surface_like_target() {
+    let (device, queue) = host_device().unwrap_or_else(|e| panic!("{e}"));
+    let mut scene = Scene::new(device.clone(), queue.clone()).unwrap_or_else(|e| panic!("{e}"));
+    let readable = texture(&device, SIZE, wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC);
+    // What a window surface gives: render attachment, nothing else. Any use
+    // beyond that is a validation error, caught here.
+    let surface_like = texture(&device, SIZE, wgpu::TextureUsages::RENDER_ATTACHMENT);
+    for (direct, cli_args) in
+        [(false, &["--iso", "0.5"][..]), (true, &["--mode", "dvr", "--tf", "marschner-lobb", "--step", "0.5"][..])]
+    {
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        scene.frame(&surface_like.create_view(&Default::default()), SIZE, &camera(), direct).unwrap();
+        device.poll(wgpu::PollType::wait_indefinitely()).unwrap();
+        assert!(pollster::block_on(scope.pop()).is_none(), "the renderer used the target beyond RENDER_ATTACHMENT");
+        // The same frame into a target the host can read back.
+        scene.frame(&readable.create_view(&Default::default()), SIZE, &camera(), direct).unwrap();
+        let ours = read_rgba(&device, &queue, &readable, SIZE);
+        let cli = cli_image(cli_args);
+        let pixels = (SIZE * SIZE) as usize;
+        let shown = ours.chunks(4).filter(|p| p[..3] != MISS).count();
+        let rms = rms(&ours, &cli);
+        let what = if direct { "volume rendering" } else { "isosurface" };
+        eprintln!(
+            "{what}, {FORMAT:?} target vs boxforge render: RMS {rms:.3}/255, {shown} of {pixels} pixels not background"
+        );
+        assert!(shown * 5 >= pixels, "{what}: only {shown} of {pixels} pixels show the volume");
+        assert!(rms < 0.5, "{what}: RMS {rms}/255 against boxforge render");
+    }
 }
 
 #[test]
@@ -80,12 +96,7 @@ fn frames_after_the_first_create_no_buffer_texture_or_shader_module() {
     let mut scene = Scene::new(device.clone(), queue.clone()).unwrap_or_else(|e| panic!("{e}"));
     let target = texture(&device, SIZE, wgpu::TextureUsages::RENDER_ATTACHMENT);
     let view = target.create_view(&Default::default());
-    let camera = Camera::default();
-    scene.frame(&view, SIZE, &camera).unwrap();
-    device.poll(wgpu::PollType::wait_indefinitely()).unwrap();
-    // Frames 2 to 10 in one encoder: anything a frame created would stay
-    // alive (referenced by the encoder) until the submit, so the live
-    // counts after frame 10 would exceed those after frame 2.
+    let camera = camera();
     let counts = |device: &wgpu::Device| {
         let c = device.get_internal_counters().hal;
         [
@@ -97,22 +108,36 @@ fn frames_after_the_first_create_no_buffer_texture_or_shader_module() {
             ("buffer memory", c.buffer_memory.read()),
         ]
     };
-    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frames") });
-    let target_desc = boxforge_runtime::render::Target { view: &view, format: FORMAT, width: SIZE, height: SIZE };
-    scene.renderer.encode(&mut encoder, &target_desc, &camera).unwrap();
-    let after_2 = counts(&device);
-    assert!(after_2[0].1 > 0, "wgpu's counters are off (the `counters` feature)");
-    for _ in 3..=10 {
-        scene.renderer.encode(&mut encoder, &target_desc, &camera).unwrap();
+    for direct in [false, true] {
+        scene.frame(&view, SIZE, &camera, direct).unwrap();
+        device.poll(wgpu::PollType::wait_indefinitely()).unwrap();
+        // Frames 2 to 10 in one encoder: anything a frame created would stay
+        // alive (referenced by the encoder) until the submit, so the live
+        // counts after frame 10 would exceed those after frame 2.
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frames") });
+        let t = boxforge_runtime::render::Target { view: &view, format: FORMAT, width: SIZE, height: SIZE };
+        let mut frame = |encoder: &mut wgpu::CommandEncoder| {
+            if direct {
+                scene.dvr.encode(encoder, &t, &camera).unwrap()
+            } else {
+                scene.renderer.encode(encoder, &t, &camera).unwrap()
+            }
+        };
+        frame(&mut encoder);
+        let after_2 = counts(&device);
+        assert!(after_2[0].1 > 0, "wgpu's counters are off (the `counters` feature)");
+        for _ in 3..=10 {
+            frame(&mut encoder);
+        }
+        let after_10 = counts(&device);
+        queue.submit([encoder.finish()]);
+        device.poll(wgpu::PollType::wait_indefinitely()).unwrap();
+        assert_eq!(after_2, after_10, "live objects after frame 2 vs frame 10 (direct: {direct})");
+        // A new camera writes the parameters (a buffer write) and creates
+        // nothing that outlives the frame.
+        let before = counts(&device);
+        scene.frame(&view, SIZE, &Camera { azimuth: 120.0, ..camera }, direct).unwrap();
+        device.poll(wgpu::PollType::wait_indefinitely()).unwrap();
+        assert_eq!(before, counts(&device), "live objects around a frame with a new camera (direct: {direct})");
     }
-    let after_10 = counts(&device);
-    queue.submit([encoder.finish()]);
-    device.poll(wgpu::PollType::wait_indefinitely()).unwrap();
-    assert_eq!(after_2, after_10, "live objects after frame 2 vs frame 10");
-    // A new camera writes the ray parameters (a buffer write) and still
-    // creates nothing that outlives the frame.
-    let before = counts(&device);
-    scene.frame(&view, SIZE, &Camera { azimuth: 120.0, ..camera }).unwrap();
-    device.poll(wgpu::PollType::wait_indefinitely()).unwrap();
-    assert_eq!(before, counts(&device), "live objects before and after a frame with a new camera");
 }

@@ -15,5 +15,6 @@ pub mod pt;
 pub mod schemes;
 
 pub use camera::{Camera, Target};
+pub use dvr::{DvrLook, DvrRenderer};
 pub use error::RenderError;
 pub use iso::renderer::{IsoOptions, IsoRenderer};

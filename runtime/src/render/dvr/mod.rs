@@ -32,12 +32,14 @@
 
 mod cpu;
 mod params;
+pub mod renderer;
 mod scene;
 mod skip;
 pub mod transfer;
 
 pub use cpu::{cpu_render, rms};
 pub use params::{dvr_params, DvrParams};
+pub use renderer::{DvrLook, DvrRenderer};
 pub(crate) use scene::{caster_entries, Caster, Custom};
 pub use scene::{render, DvrScene};
 pub use skip::{empty_flags, skip_flags, widen_bounds};
@@ -104,7 +106,7 @@ impl Default for DvrOptions {
 
 impl DvrOptions {
     /// The iso renderer's options with the same camera (for [`ray_params`]).
-    fn camera(&self) -> RenderOptions {
+    pub(crate) fn camera(&self) -> RenderOptions {
         RenderOptions {
             width: self.width,
             height: self.height,

@@ -3,7 +3,7 @@
 use super::{DvrOptions, G0_OF_RANGE, LIGHT};
 use crate::render::camera::CameraUniform;
 use crate::render::dvr::transfer::Tf1d;
-use crate::render::iso::ray_params;
+use crate::render::iso::ray_params_for;
 use crate::volume::LatticeVolume;
 use boxforge::derive::Derivation;
 
@@ -29,7 +29,19 @@ pub struct DvrParams {
 
 /// The uniform values of a DVR image.
 pub fn dvr_params(d: &Derivation, vol: &LatticeVolume, table: &Tf1d, pi_size: usize, o: &DvrOptions) -> DvrParams {
-    let r = ray_params(d, vol, &o.camera());
+    dvr_params_for(crate::verify::support_radius(d), vol.dims, table, pi_size, o)
+}
+
+/// [`dvr_params`] for a volume of `dims` samples and a filter whose support
+/// reaches `radius` cells (what a renderer keeps after the upload).
+pub(crate) fn dvr_params_for(
+    radius: usize,
+    dims: [usize; 3],
+    table: &Tf1d,
+    pi_size: usize,
+    o: &DvrOptions,
+) -> DvrParams {
+    let r = ray_params_for(radius, dims, &o.camera());
     let span = table.hi - table.lo;
     DvrParams {
         camera: r.camera,

@@ -1,0 +1,209 @@
+//! The direct volume renderer a host drives frame by frame, the DVR
+//! counterpart of [`crate::render::IsoRenderer`]: built once with a
+//! transfer function (shader compiled, block bounds, tables, skipping flags
+//! and pre-integration uploaded), then [`DvrRenderer::encode`] records a
+//! frame into the host's encoder and colour target. Frames after the first
+//! at one size create no buffer, texture or shader module.
+
+use super::params::{dvr_params_for, DvrParams};
+use super::scene::caster_entries;
+use super::skip::{empty_flags, skip_flags};
+use super::transfer::TransferFunction;
+use super::{shader_source, DvrOptions};
+use crate::gpu::Gpu;
+use crate::render::blocks::block_bounds;
+use crate::render::camera::{Camera, Target};
+use crate::render::present::Presenter;
+use crate::render::RenderError;
+use crate::volume::DeviceVolume;
+use boxforge::derive::Derivation;
+
+/// How a volume rendering looks, independent of the frame.
+#[derive(Clone, Copy, Debug)]
+pub struct DvrLook {
+    /// Segment length in cells.
+    pub step: f32,
+    /// Edge of the skipping blocks in unit cubes.
+    pub block: i32,
+    /// Transfer-function-aware empty-space skipping.
+    pub skip: bool,
+    /// Pre-integrated segments (else point samples).
+    pub preintegrate: bool,
+    /// Early ray termination opacity.
+    pub termination: f32,
+}
+
+impl Default for DvrLook {
+    fn default() -> Self {
+        let o = DvrOptions::default();
+        DvrLook { step: o.step, block: o.block, skip: o.skip, preintegrate: o.preintegrate, termination: o.termination }
+    }
+}
+
+struct Sized {
+    width: u32,
+    height: u32,
+    caster: wgpu::BindGroup,
+    image: wgpu::Buffer,
+    present: Option<(wgpu::TextureFormat, wgpu::BindGroup)>,
+}
+
+/// A volume rendering of one volume with one filter and transfer function.
+pub struct DvrRenderer {
+    gpu: Gpu,
+    look: DvrLook,
+    radius: usize,
+    dims: [usize; 3],
+    table: super::transfer::Tf1d,
+    pi_size: usize,
+    empty_blocks: f64,
+    pipeline: wgpu::ComputePipeline,
+    caster_layout: wgpu::BindGroupLayout,
+    samples: wgpu::BindGroup,
+    params: wgpu::Buffer,
+    last_params: Option<DvrParams>,
+    flags: wgpu::Buffer,
+    tf: wgpu::Buffer,
+    preint: wgpu::Buffer,
+    presenter: Presenter,
+    sized: Option<Sized>,
+}
+
+impl DvrRenderer {
+    /// Compiles the DVR ray caster of `d` for `volume`'s layout, bounds its
+    /// blocks, and uploads `tf`'s tables and the skipping flags.
+    pub fn new(
+        gpu: &Gpu,
+        d: &Derivation,
+        volume: &DeviceVolume,
+        tf: &TransferFunction,
+        look: DvrLook,
+    ) -> Result<DvrRenderer, RenderError> {
+        let name = &d.filter.name;
+        let shader = gpu.compile(&format!("{name}.dvr.wgsl"), &shader_source(d, volume.layout)?)?;
+        let bounds = block_bounds(gpu, &shader, name, volume, volume.dims, look.block)?;
+        let table = tf.table();
+        let pi = look.preintegrate.then(|| table.preintegrate(look.step as f64));
+        let empty = empty_flags(&bounds, &table);
+        let empty_blocks = empty.iter().filter(|&&f| f != 0).count() as f64 / empty.len().max(1) as f64;
+        let blocks = crate::render::blocks::blocks_per_axis(volume.dims, look.block);
+        let radius = (look.step / look.block as f32).ceil() as i32;
+        let flags = skip_flags(&empty, blocks, radius);
+        let pi_entries: Vec<[f32; 4]> = pi.as_ref().map_or_else(|| vec![[0.0; 4]; 4], |p| p.entries.clone());
+        let dev = &gpu.device;
+        let samples_layout = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("samples"),
+            entries: &volume.layout_entries(0, wgpu::ShaderStages::COMPUTE),
+        });
+        let caster_layout = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("dvr"),
+            entries: &caster_entries(),
+        });
+        let pipeline = gpu.pipeline("dvr", &shader, &[&samples_layout, &caster_layout], &format!("{name}_dvr_main"))?;
+        let samples = dev.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("samples"),
+            layout: &samples_layout,
+            entries: &volume.bind_entries(0),
+        });
+        Ok(DvrRenderer {
+            gpu: gpu.clone(),
+            look,
+            radius: crate::verify::support_radius(d),
+            dims: volume.dims,
+            pi_size: pi.as_ref().map_or(2, |p| p.size),
+            empty_blocks,
+            pipeline,
+            caster_layout,
+            samples,
+            params: gpu.uniform_buffer("dvr params", &[0u8; std::mem::size_of::<DvrParams>()]),
+            last_params: None,
+            flags: gpu.storage_buffer("dvr flags", bytemuck::cast_slice(&flags), false),
+            tf: gpu.storage_buffer("dvr tf", bytemuck::cast_slice(&table.entries), false),
+            preint: gpu.storage_buffer("dvr preint", bytemuck::cast_slice(&pi_entries), false),
+            table,
+            presenter: Presenter::new(gpu)?,
+            sized: None,
+        })
+    }
+
+    /// The fraction of blocks the transfer function leaves transparent.
+    pub fn empty_blocks(&self) -> f64 {
+        self.empty_blocks
+    }
+
+    /// Records one frame into `encoder`: the DVR ray caster, then the image
+    /// drawn into `target`.
+    pub fn encode(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        target: &Target<'_>,
+        camera: &Camera,
+    ) -> Result<(), RenderError> {
+        if target.width == 0 || target.height == 0 {
+            return Err(RenderError::EmptyTarget);
+        }
+        self.ensure_image(target.width, target.height)?;
+        let o = DvrOptions {
+            width: target.width,
+            height: target.height,
+            azimuth: camera.azimuth,
+            elevation: camera.elevation,
+            perspective: camera.perspective,
+            skip: self.look.skip,
+            preintegrate: self.look.preintegrate,
+            step: self.look.step,
+            block: self.look.block,
+            termination: self.look.termination,
+            ..DvrOptions::default()
+        };
+        let params = dvr_params_for(self.radius, self.dims, &self.table, self.pi_size, &o);
+        if self.last_params.map(|p| bytemuck::bytes_of(&p) != bytemuck::bytes_of(&params)).unwrap_or(true) {
+            self.gpu.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
+            self.last_params = Some(params);
+        }
+        let sized = self.sized.as_mut().expect("allocated above");
+        if sized.present.as_ref().map(|(f, _)| *f) != Some(target.format) {
+            self.presenter.prepare(&self.gpu, target.format)?;
+            sized.present =
+                Some((target.format, self.presenter.bind(&self.gpu, &sized.image, target.width, target.format)));
+        }
+        {
+            let mut pass =
+                encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("dvr"), timestamp_writes: None });
+            pass.set_pipeline(&self.pipeline);
+            pass.set_bind_group(0, &self.samples, &[]);
+            pass.set_bind_group(1, &sized.caster, &[]);
+            pass.dispatch_workgroups(target.width.div_ceil(8), target.height.div_ceil(8), 1);
+        }
+        let present = &sized.present.as_ref().expect("prepared above").1;
+        self.presenter.encode(encoder, target.view, target.format, present);
+        Ok(())
+    }
+
+    fn ensure_image(&mut self, width: u32, height: u32) -> Result<(), RenderError> {
+        if let Some(s) = &self.sized {
+            if (s.width, s.height) == (width, height) {
+                return Ok(());
+            }
+        }
+        let limit = self.gpu.limits().max_storage_buffer_binding_size;
+        let bytes = width as u64 * height as u64 * 4;
+        if bytes > limit {
+            return Err(RenderError::TargetTooLarge { width, height, limit });
+        }
+        let image = self.gpu.storage_buffer("dvr image", &vec![0u8; bytes as usize], true);
+        let caster = self.gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("dvr"),
+            layout: &self.caster_layout,
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: self.params.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 1, resource: image.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 2, resource: self.flags.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 3, resource: self.tf.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 4, resource: self.preint.as_entire_binding() },
+            ],
+        });
+        self.sized = Some(Sized { width, height, caster, image, present: None });
+        Ok(())
+    }
+}
