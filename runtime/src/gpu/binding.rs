@@ -95,3 +95,42 @@ pub fn storage_texture_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
         count: None,
     }
 }
+
+/// The layout entries of bind group `group` as the shader declares them:
+/// `bindings` is the shader's table (`boxforge::validate::bindings_of_wgsl`,
+/// the same table each report lists), so binding numbers and kinds come from
+/// the shader rather than from numbers written again here. Sampled textures
+/// and samplers are left to their owners (the samples' group is laid out by
+/// [`crate::volume::DeviceVolume`], which knows whether they are filterable).
+pub fn layout_entries_from(
+    bindings: &[boxforge::validate::Binding],
+    group: u32,
+) -> Result<Vec<wgpu::BindGroupLayoutEntry>, crate::gpu::GpuError> {
+    bindings
+        .iter()
+        .filter(|b| b.group == group)
+        .map(|b| match b.kind.as_str() {
+            "storage buffer read" => Ok(storage_entry(b.binding, true)),
+            "storage buffer read_write" => Ok(storage_entry(b.binding, false)),
+            "uniform buffer" => Ok(uniform_entry(b.binding)),
+            other => Err(crate::gpu::GpuError::Runtime(format!(
+                "binding {} ({}) of group {group} is a {other}, which this layout builder does not lay out",
+                b.binding, b.name
+            ))),
+        })
+        .collect()
+}
+
+/// The bind group entries among `resources` (binding, buffer) that the
+/// shader declares in `group` (a template leaves out what a mode does not use).
+pub fn entries_for<'a>(
+    bindings: &[boxforge::validate::Binding],
+    group: u32,
+    resources: &[(u32, &'a wgpu::Buffer)],
+) -> Vec<wgpu::BindGroupEntry<'a>> {
+    resources
+        .iter()
+        .filter(|(binding, _)| bindings.iter().any(|b| b.group == group && b.binding == *binding))
+        .map(|&(binding, buffer)| wgpu::BindGroupEntry { binding, resource: buffer.as_entire_binding() })
+        .collect()
+}

@@ -6,11 +6,11 @@
 //! at one size create no buffer, texture or shader module.
 
 use super::params::{dvr_params_for, DvrParams};
-use super::scene::caster_entries;
 use super::skip::{empty_flags, skip_flags};
 use super::transfer::TransferFunction;
 use super::{shader_source, DvrOptions};
-use crate::gpu::Gpu;
+use crate::gpu::binding::{entries_for, layout_entries_from};
+use crate::gpu::{Gpu, GpuError};
 use crate::render::blocks::block_bounds;
 use crate::render::camera::{Camera, Target};
 use crate::render::present::Presenter;
@@ -59,6 +59,8 @@ pub struct DvrRenderer {
     empty_blocks: f64,
     pipeline: wgpu::ComputePipeline,
     caster_layout: wgpu::BindGroupLayout,
+    /// The shader's bindings table (what its bind groups are built from).
+    bindings: Vec<boxforge::validate::Binding>,
     samples: wgpu::BindGroup,
     params: wgpu::Buffer,
     last_params: Option<DvrParams>,
@@ -80,7 +82,11 @@ impl DvrRenderer {
         look: DvrLook,
     ) -> Result<DvrRenderer, RenderError> {
         let name = &d.filter.name;
-        let shader = gpu.compile(&format!("{name}.dvr.wgsl"), &shader_source(d, volume.layout)?)?;
+        let source = shader_source(d, volume.layout)?;
+        let shader = gpu.compile(&format!("{name}.dvr.wgsl"), &source)?;
+        // Group 1 (parameters, image, skipping flags, tables) as the template declares it.
+        let bindings = boxforge::validate::bindings_of_wgsl(&source)
+            .map_err(|message| GpuError::Shader { label: format!("{name}.dvr.wgsl"), message })?;
         let bounds = block_bounds(gpu, &shader, name, volume, volume.dims, look.block)?;
         let table = tf.table();
         let pi = look.preintegrate.then(|| table.preintegrate(look.step as f64));
@@ -97,7 +103,7 @@ impl DvrRenderer {
         });
         let caster_layout = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("dvr"),
-            entries: &caster_entries(),
+            entries: &layout_entries_from(&bindings, 1)?,
         });
         let pipeline = gpu.pipeline("dvr", &shader, &[&samples_layout, &caster_layout], &format!("{name}_dvr_main"))?;
         let samples = dev.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -114,6 +120,7 @@ impl DvrRenderer {
             empty_blocks,
             pipeline,
             caster_layout,
+            bindings,
             samples,
             params: gpu.uniform_buffer("dvr params", &[0u8; std::mem::size_of::<DvrParams>()]),
             last_params: None,
@@ -192,16 +199,11 @@ impl DvrRenderer {
             return Err(RenderError::TargetTooLarge { width, height, limit });
         }
         let image = self.gpu.storage_buffer("dvr image", &vec![0u8; bytes as usize], true);
+        let resources = [(0, &self.params), (1, &image), (2, &self.flags), (3, &self.tf), (4, &self.preint)];
         let caster = self.gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("dvr"),
             layout: &self.caster_layout,
-            entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: self.params.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 1, resource: image.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 2, resource: self.flags.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 3, resource: self.tf.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 4, resource: self.preint.as_entire_binding() },
-            ],
+            entries: &entries_for(&self.bindings, 1, &resources),
         });
         self.sized = Some(Sized { width, height, caster, image, present: None });
         Ok(())

@@ -6,9 +6,9 @@
 //! ray parameters only when the camera changed.
 
 use super::{fine_grid, ray_params_for, raycast_shader, Frame, HitMode, RayParams, RenderOptions};
-use crate::gpu::binding::{storage_entry, uniform_entry};
+use crate::gpu::binding::{entries_for, layout_entries_from};
 use crate::gpu::timing::timed_banded_frames;
-use crate::gpu::Gpu;
+use crate::gpu::{Gpu, GpuError};
 use crate::render::blocks::{self, block_bounds};
 use crate::render::camera::{Camera, Target};
 use crate::render::present::Presenter;
@@ -58,6 +58,8 @@ pub struct IsoRenderer {
     dims: [usize; 3],
     pipeline: wgpu::ComputePipeline,
     caster_layout: wgpu::BindGroupLayout,
+    /// The shader's bindings table (what its bind groups are built from).
+    bindings: Vec<boxforge::validate::Binding>,
     samples: wgpu::BindGroup,
     params: wgpu::Buffer,
     last_params: Option<RayParams>,
@@ -96,15 +98,12 @@ impl IsoRenderer {
             label: Some("samples"),
             entries: &volume.layout_entries(0, wgpu::ShaderStages::COMPUTE),
         });
+        // Group 1 (parameters, image, block grids, depth) as the template declares it.
+        let bindings = boxforge::validate::bindings_of_wgsl(&source)
+            .map_err(|message| GpuError::Shader { label: format!("{name}.raycast.wgsl"), message })?;
         let caster_layout = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("raycast"),
-            entries: &[
-                uniform_entry(0),
-                storage_entry(1, false),
-                storage_entry(2, true),
-                storage_entry(3, false),
-                storage_entry(4, true),
-            ],
+            entries: &layout_entries_from(&bindings, 1)?,
         });
         let pipeline =
             gpu.pipeline("raycast", &shader, &[&samples_layout, &caster_layout], &format!("{name}_raycast_main"))?;
@@ -122,6 +121,7 @@ impl IsoRenderer {
             dims: volume.dims,
             pipeline,
             caster_layout,
+            bindings,
             samples,
             params,
             last_params: None,
@@ -226,19 +226,17 @@ impl IsoRenderer {
         }
         let image = gpu.storage_buffer("image", &vec![0u8; bytes as usize], true);
         let depth = gpu.storage_buffer("depth", &vec![0u8; bytes as usize], true);
+        let resources = [
+            (0, &self.params),
+            (1, &image),
+            (2, &self.blocks),
+            (3, &depth),
+            (4, self.fine.as_ref().unwrap_or(&self.blocks)),
+        ];
         let caster = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("raycast"),
             layout: &self.caster_layout,
-            entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: self.params.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 1, resource: image.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 2, resource: self.blocks.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 3, resource: depth.as_entire_binding() },
-                wgpu::BindGroupEntry {
-                    binding: 4,
-                    resource: self.fine.as_ref().unwrap_or(&self.blocks).as_entire_binding(),
-                },
-            ],
+            entries: &entries_for(&self.bindings, 1, &resources),
         });
         self.sized = Some(Sized { width, height, present: None, caster, image, depth });
         Ok(())
