@@ -40,6 +40,12 @@ pub struct VerifyReport {
     /// max over points of |grad_gpu - grad_exact|_inf / max(|grad_exact|_inf, data range).
     pub max_rel_grad_err: f64,
     pub data_range: f64,
+    /// Points within f32 rounding of a knot plane ([`knot_tolerance`]): the
+    /// device may place them in the piece on either side.
+    pub near_knot_points: usize,
+    /// Near-knot points whose device value and gradient match a neighbouring
+    /// piece (not the one the exact evaluator picked) and were accepted so.
+    pub accepted_other_side: usize,
     pub passed: bool,
     pub adapter: String,
 }
@@ -341,10 +347,8 @@ pub fn verify_fetch(
     let module = verify_module(d, &dv, variant, form, bounds)?;
     let used = module.stats.form;
     let evaluator = PointEvaluator::new(gpu, &module.source, &module.file_name, &d.filter.name, &dv)?;
-    let (lo, hi) = vol.data.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
-    let range = (hi - lo).max(f32::MIN_POSITIVE) as f64;
-    let mut max_abs: f64 = 0.0;
-    let mut max_rel: f64 = 0.0;
+    let range = data_range(&vol);
+    let mut tally = Tally::new(range);
     // Chunk by chunk, so a hundred million points need no more memory than one chunk.
     let mut done = 0;
     let mut chunk_index = 0u64;
@@ -353,17 +357,11 @@ pub fn verify_fetch(
         let chunk_seed = if chunk_index == 0 { seed } else { seed ^ chunk_index.wrapping_mul(0x9E37_79B9_7F4A_7C15) };
         let pts = random_points(d, &vol, count, chunk_seed);
         let (values, grads) = evaluator.eval(&pts)?;
-        let exact = cpu_eval(d, &vol, &pts);
-        for ((v, g), (ev, eg)) in values.iter().zip(&grads).zip(&exact) {
-            max_abs = max_abs.max((*v as f64 - ev).abs()).max((g[0] as f64 - ev).abs());
-            let gmax = eg.iter().fold(0f64, |m, x| m.max(x.abs()));
-            let diff = (0..3).fold(0f64, |m, i| m.max((g[i + 1] as f64 - eg[i]).abs()));
-            max_rel = max_rel.max(diff / gmax.max(range));
-        }
+        tally.check(d, &vol, &pts, &values, &grads);
         done += count;
         chunk_index += 1;
     }
-    let passed = max_abs <= 1e-5 * range && max_rel <= 1e-4;
+    let passed = tally.passed();
     Ok(VerifyReport {
         filter: d.filter.name.clone(),
         layout,
@@ -372,10 +370,133 @@ pub fn verify_fetch(
         bounds,
         fetch,
         points,
-        max_abs_err: max_abs,
-        max_rel_grad_err: max_rel,
+        max_abs_err: tally.max_abs,
+        max_rel_grad_err: tally.max_rel,
         data_range: range,
+        near_knot_points: tally.near_knot_points,
+        accepted_other_side: tally.accepted_other_side,
         passed,
         adapter: gpu.describe(),
     })
+}
+
+/// The data range of a volume (at least the smallest positive f32).
+pub fn data_range(vol: &LatticeVolume) -> f64 {
+    let (lo, hi) = vol.data.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
+    (hi - lo).max(f32::MIN_POSITIVE) as f64
+}
+
+/// Value tolerance: |GPU value - exact value| <= this times the data range.
+pub const VALUE_TOLERANCE: f64 = 1e-5;
+/// Gradient tolerance: |grad_gpu - grad_exact|_inf / max(|grad_exact|_inf, range) <= this.
+pub const GRADIENT_TOLERANCE: f64 = 1e-4;
+
+/// How far (in units of n . x) a point may be from the knot plane
+/// n . x = c and still be placed by the device in the piece on either side:
+/// `4 f32::EPSILON (|n|_1 |x|_max + |c|)`.
+///
+/// The points are f32 and the exact evaluator takes them exactly, but the
+/// device locates them with f32 arithmetic: the shift to the cube (x - z,
+/// exact), the map to the reference piece and the plane tests n . u <= b,
+/// each a short sum of integer multiples of coordinates. |n|_1 |x|_max bounds
+/// every partial sum of n . x (and of the local coordinates' forms) and |c|
+/// the constant it is compared with; each of the at most s + 1 = 4 rounded
+/// additions errs by at most eps/2 of that, so 4 eps is about twice the
+/// worst case for 3D, and still a band of ~1e-5 around each plane (a small
+/// fraction of the points, counted in the report).
+pub fn knot_tolerance(normal: &[i64], c: f64, x_max: f64) -> f64 {
+    let n1: f64 = normal.iter().map(|a| a.unsigned_abs() as f64).sum();
+    4.0 * f32::EPSILON as f64 * (n1 * x_max + c.abs())
+}
+
+/// The knot plane n . x = c nearest to x of every family the derivation's
+/// arrangement has, with |n . x - c| and [`knot_tolerance`] for it.
+pub fn nearest_knot_planes(d: &Derivation, x: &[f64]) -> Vec<(Vec<i64>, f64, f64, f64)> {
+    let x_max = x.iter().fold(0f64, |m, a| m.max(a.abs()));
+    d.arrangement
+        .families
+        .iter()
+        .map(|f| {
+            let (offset, period) = (f.offset.to_f64(), f.period as f64);
+            let v: f64 = f.normal.iter().zip(x).map(|(n, a)| *n as f64 * a).sum();
+            let c = offset + ((v - offset) / period).round() * period;
+            (f.normal.clone(), c, (v - c).abs(), knot_tolerance(&f.normal, c, x_max))
+        })
+        .collect()
+}
+
+/// Is x within [`knot_tolerance`] of a knot plane? Returns the largest
+/// such tolerance in x units (|n . x - c| / |n|_1 <= tol / |n|_1), or None.
+pub fn near_knot(d: &Derivation, x: &[f64]) -> Option<f64> {
+    nearest_knot_planes(d, x)
+        .into_iter()
+        .filter(|(_, _, dist, tol)| dist <= tol)
+        .map(|(n, _, _, tol)| tol / n.iter().map(|a| a.unsigned_abs() as f64).sum::<f64>())
+        .reduce(f64::max)
+}
+
+/// The running comparison of device values against the exact evaluator.
+#[derive(Clone, Debug, Default)]
+pub struct Tally {
+    pub data_range: f64,
+    pub max_abs: f64,
+    pub max_rel: f64,
+    pub points: usize,
+    pub near_knot_points: usize,
+    pub accepted_other_side: usize,
+}
+
+impl Tally {
+    pub fn new(data_range: f64) -> Tally {
+        Tally { data_range, ..Tally::default() }
+    }
+
+    /// (value error, relative gradient error) of one device result against
+    /// an exact value and gradient.
+    fn errors(&self, v: f32, g: &[f32; 4], ev: f64, eg: &[f64]) -> (f64, f64) {
+        let abs = (v as f64 - ev).abs().max((g[0] as f64 - ev).abs());
+        let gmax = eg.iter().fold(0f64, |m, x| m.max(x.abs()));
+        let diff = (0..3).fold(0f64, |m, i| m.max((g[i + 1] as f64 - eg[i]).abs()));
+        (abs, diff / gmax.max(self.data_range))
+    }
+
+    fn within(&self, (abs, rel): (f64, f64)) -> bool {
+        abs <= VALUE_TOLERANCE * self.data_range && rel <= GRADIENT_TOLERANCE
+    }
+
+    /// Compares device values and gradients at `pts` with the exact
+    /// evaluator. A point within [`knot_tolerance`] of a knot plane passes
+    /// when it matches the piece on any side of the planes it is near
+    /// ([`Derivation::eval_f64_pieces_near`]); every other point is held to
+    /// the exact evaluator's own piece, with the same tolerances.
+    pub fn check(&mut self, d: &Derivation, vol: &LatticeVolume, pts: &[[f32; 4]], values: &[f32], grads: &[[f32; 4]]) {
+        let exact = cpu_eval(d, vol, pts);
+        let data = |j: &[i64]| vol.get(j) as f64;
+        for (((p, v), g), (ev, eg)) in pts.iter().zip(values).zip(grads).zip(&exact) {
+            let mut err = self.errors(*v, g, *ev, eg);
+            let x = [p[0] as f64, p[1] as f64, p[2] as f64];
+            if let Some(tol) = near_knot(d, &x) {
+                self.near_knot_points += 1;
+                if !self.within(err) {
+                    let other = d
+                        .eval_f64_pieces_near(&x, &data, tol)
+                        .iter()
+                        .map(|(ov, og)| self.errors(*v, g, *ov, og))
+                        .find(|e| self.within(*e));
+                    if let Some(e) = other {
+                        self.accepted_other_side += 1;
+                        err = e;
+                    }
+                }
+            }
+            self.max_abs = self.max_abs.max(err.0);
+            self.max_rel = self.max_rel.max(err.1);
+        }
+        self.points += pts.len();
+    }
+
+    /// Every point within the value and gradient tolerances.
+    pub fn passed(&self) -> bool {
+        self.max_abs <= VALUE_TOLERANCE * self.data_range && self.max_rel <= GRADIENT_TOLERANCE
+    }
 }

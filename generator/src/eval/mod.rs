@@ -131,3 +131,86 @@ impl Derivation {
         (value, grad)
     }
 }
+
+impl Derivation {
+    /// f64 value and gradient (∂/∂x) of every polynomial piece whose closed
+    /// cell lies within `tol` (max norm, in x units) of x, each piece's
+    /// polynomial evaluated at x itself: the one-sided limits of the spline
+    /// at a point on (or within `tol` of) knot planes. Cells of neighbouring
+    /// cubes count when x is within `tol` of a grid plane. A point inside a
+    /// cell, farther than `tol` from its facets, gets one entry, equal to
+    /// [`Derivation::eval_f64`]; the list is never empty.
+    pub fn eval_f64_pieces_near(&self, x: &[f64], data: &dyn Fn(&[i64]) -> f64, tol: f64) -> Vec<(f64, Vec<f64>)> {
+        let t = self.f64_tables();
+        let s = x.len();
+        let arr = &self.arrangement;
+        let ranges: Vec<(i64, i64)> = (0..s)
+            .map(|i| ((x[i] - t.offset[i] - tol).floor() as i64, (x[i] - t.offset[i] + tol).floor() as i64))
+            .collect();
+        let mut out = Vec::new();
+        let mut z: IVec = ranges.iter().map(|r| r.0).collect();
+        loop {
+            let (ci, l) = arr.locate_cube(&self.filter.lattice, &z);
+            let xr: Vec<f64> = (0..s).map(|i| x[i] - l[i] as f64).collect();
+            for (cell, hs) in t.cells.iter().enumerate() {
+                if arr.cells[cell].class != ci {
+                    continue;
+                }
+                let slack = hs
+                    .iter()
+                    .map(|(n, b)| {
+                        let norm: f64 = n.iter().map(|a| a.abs()).sum();
+                        (b - n.iter().zip(&xr).map(|(a, c)| a * c).sum::<f64>()) / norm
+                    })
+                    .fold(f64::INFINITY, f64::min);
+                if slack >= -tol {
+                    out.push(self.eval_f64_in_cell(cell, &l, &xr, data));
+                }
+            }
+            // Next cube corner in the box of candidates.
+            let mut axis = 0;
+            while axis < s && z[axis] == ranges[axis].1 {
+                z[axis] = ranges[axis].0;
+                axis += 1;
+            }
+            if axis == s {
+                break;
+            }
+            z[axis] += 1;
+        }
+        if out.is_empty() {
+            out.push(self.eval_f64(x, data));
+        }
+        out
+    }
+
+    /// The polynomial of `cell` (in the cube moved by the lattice vector `l`)
+    /// at xr = x - l, extrapolated when xr is outside the cell: value and ∂/∂x.
+    fn eval_f64_in_cell(&self, cell: usize, l: &[i64], xr: &[f64], data: &dyn Fn(&[i64]) -> f64) -> (f64, Vec<f64>) {
+        let t = self.f64_tables();
+        let s = xr.len();
+        let map = &self.maps[cell];
+        let r = &self.references[map.reference];
+        let y: Vec<f64> = (0..s)
+            .map(|i| {
+                map.rotation[i].iter().zip(xr).map(|(a, b)| *a as f64 * b).sum::<f64>() + map.translation[i] as f64
+            })
+            .collect();
+        let u: Vec<f64> = (0..s).map(|i| y[i] - t.offset[i] - r.corner[i] as f64).collect();
+        let tab = self.f64_reference(map.reference);
+        let mut combined = vec![0.0; tab.exps.len()];
+        for (k, off) in r.stencil.iter().enumerate() {
+            let j = add_i(l, &map.inverse_point(&add_i(&r.corner, off)));
+            let c = data(&j);
+            if c == 0.0 {
+                continue;
+            }
+            for (acc, coef) in combined.iter_mut().zip(&tab.coeffs[k]) {
+                *acc += c * coef;
+            }
+        }
+        let (value, grad_u) = eval_poly_f64(&tab.exps, &combined, &u);
+        let grad: Vec<f64> = (0..s).map(|i| (0..s).map(|k| map.rotation[k][i] as f64 * grad_u[k]).sum()).collect();
+        (value, grad)
+    }
+}

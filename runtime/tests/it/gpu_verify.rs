@@ -46,7 +46,7 @@ fn verification_can_fail() {
     let vol = boxforge_runtime::verify::random_volume(&bcc7, 5);
     let pts = boxforge_runtime::verify::random_points(&bcc7, &vol, 200, 5);
     let dv = boxforge_runtime::volume::DeviceVolume::new(gpu, &vol, Layout::Embedded).unwrap();
-    let (values, _) = boxforge_runtime::verify::gpu_eval(gpu, &bcc7, &dv, Variant::Fast, &pts).unwrap();
+    let (values, grads) = boxforge_runtime::verify::gpu_eval(gpu, &bcc7, &dv, Variant::Fast, &pts).unwrap();
     let exact = boxforge_runtime::verify::cpu_eval(&bcc7, &vol, &pts);
     let max = values.iter().zip(&exact).map(|(v, e)| (*v as f64 - e.0).abs()).fold(0f64, f64::max);
     assert!(max < 1e-5, "bcc7 itself agrees ({max})");
@@ -56,6 +56,80 @@ fn verification_can_fail() {
     let exact2 = boxforge_runtime::verify::cpu_eval(&bcc7, &vol2, &pts);
     let max2 = values.iter().zip(&exact2).map(|(v, e)| (*v as f64 - e.0).abs()).fold(0f64, f64::max);
     assert!(max2 > 1e-3, "a 1% data change must be visible ({max2})");
+    // The verifier's own comparison (near-knot rule included) fails it too.
+    let range = boxforge_runtime::verify::data_range(&vol);
+    let mut t = boxforge_runtime::verify::Tally::new(range);
+    t.check(&bcc7, &vol, &pts, &values, &grads);
+    assert!(t.passed(), "bcc7 against its own data: {t:?}");
+    let mut t2 = boxforge_runtime::verify::Tally::new(range);
+    t2.check(&bcc7, &vol2, &pts, &values, &grads);
+    assert!(!t2.passed(), "against 1% larger data: {t2:?}");
+}
+
+/// bcc_linear is only C0: on a knot plane its gradient jumps, and the device
+/// may place a point within f32 rounding of the plane in either piece.
+/// (a) Points put on the derivation's knot planes (a random point projected
+/// onto the nearest plane of one family, rounded to f32) all count as
+/// near-knot and pass, matching the piece on one side or the other;
+/// (b) points far from every plane with a perturbed gradient still fail, and
+/// so does an on-plane point whose gradient matches neither side.
+#[test]
+fn knot_plane_points_pass_either_side_and_wrong_gradients_still_fail() {
+    use boxforge_runtime::verify::{data_range, gpu_eval, near_knot, random_points, random_volume, Tally};
+    use boxforge_runtime::volume::DeviceVolume;
+    let gpu = gpu();
+    let d = Derivation::new(&boxforge::spec::catalog::get("bcc_linear").unwrap()).unwrap();
+    let vol = random_volume(&d, 3);
+    let dv = DeviceVolume::new(gpu, &vol, Layout::Embedded).unwrap();
+    let range = data_range(&vol);
+    let x64 = |p: &[f32; 4]| [p[0] as f64, p[1] as f64, p[2] as f64];
+    let families = &d.arrangement.families;
+    assert!(!families.is_empty());
+    let seeds = random_points(&d, &vol, 4000, 3);
+    let on: Vec<[f32; 4]> = seeds
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let f = &families[i % families.len()];
+            let n: Vec<f64> = f.normal.iter().map(|a| *a as f64).collect();
+            let (offset, period) = (f.offset.to_f64(), f.period as f64);
+            let x = x64(p);
+            let v: f64 = n.iter().zip(&x).map(|(a, b)| a * b).sum();
+            let c = offset + ((v - offset) / period).round() * period;
+            let t = (v - c) / n.iter().map(|a| a * a).sum::<f64>();
+            [(x[0] - t * n[0]) as f32, (x[1] - t * n[1]) as f32, (x[2] - t * n[2]) as f32, 0.0]
+        })
+        .collect();
+    assert!(on.iter().all(|p| near_knot(&d, &x64(p)).is_some()), "every projected point is near its plane");
+    let (values, grads) = gpu_eval(gpu, &d, &dv, Variant::Fast, &on).unwrap();
+    let mut t = Tally::new(range);
+    t.check(&d, &vol, &on, &values, &grads);
+    eprintln!("bcc_linear on knot planes: {t:?}");
+    assert_eq!(t.near_knot_points, on.len());
+    assert!(t.passed(), "{t:?}");
+    assert!(t.accepted_other_side > 0, "the device put some points in the other piece: {t:?}");
+    // An on-plane point whose gradient matches neither side fails.
+    let mut bad = grads.clone();
+    bad[0][1] += 0.5;
+    let mut t = Tally::new(range);
+    t.check(&d, &vol, &on[..1], &values[..1], &bad[..1]);
+    assert!(!t.passed() && t.near_knot_points == 1, "{t:?}");
+
+    // (b) Far from every plane: exact agreement, and a perturbed gradient fails.
+    let far: Vec<[f32; 4]> =
+        random_points(&d, &vol, 500, 9).into_iter().filter(|p| near_knot(&d, &x64(p)).is_none()).collect();
+    assert!(far.len() > 400);
+    let (values, grads) = gpu_eval(gpu, &d, &dv, Variant::Fast, &far).unwrap();
+    let mut t = Tally::new(range);
+    t.check(&d, &vol, &far, &values, &grads);
+    assert!(t.passed() && t.near_knot_points == 0, "{t:?}");
+    for i in [0, far.len() / 2, far.len() - 1] {
+        let mut bad = grads.clone();
+        bad[i][2] += 1e-3 * range.max(bad[i][2].abs() as f64) as f32;
+        let mut t = Tally::new(range);
+        t.check(&d, &vol, &far, &values, &bad);
+        assert!(!t.passed() && t.accepted_other_side == 0, "point {i}: {t:?}");
+    }
 }
 
 #[test]

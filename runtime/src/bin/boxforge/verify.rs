@@ -79,7 +79,7 @@ pub fn run(a: VerifyArgs) -> Result<(), Failure> {
         outln!("{}", serde_json::to_string(&r).unwrap());
     } else {
         outln!(
-            "{} ({}, {}, form {}, {} {} fetches) on {}: {} points, max |value error| {:.3e} (range {:.3}), max relative gradient error {:.3e}: {}",
+            "{} ({}, {}, form {}, {} {} fetches) on {}: {} points, max |value error| {:.3e} (range {:.3}), max relative gradient error {:.3e}, {} near a knot plane ({} matched the piece across it): {}",
             r.filter,
             layout.name(),
             variant.name(),
@@ -91,6 +91,8 @@ pub fn run(a: VerifyArgs) -> Result<(), Failure> {
             r.max_abs_err,
             r.data_range,
             r.max_rel_grad_err,
+            r.near_knot_points,
+            r.accepted_other_side,
             if r.passed { "PASSED" } else { "FAILED" }
         );
     }
