@@ -2,8 +2,9 @@
 //! with --serve.
 
 use crate::common::Failure;
+use crate::request;
 use boxforge::spec;
-use boxforge_runtime::{request, web};
+use boxforge_runtime::web;
 
 #[derive(clap::Args)]
 pub struct WebArgs {

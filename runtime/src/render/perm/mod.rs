@@ -42,7 +42,6 @@ mod index;
 mod memory;
 mod peel;
 mod render;
-mod request;
 mod texture;
 
 pub use build::PermCache;
@@ -50,7 +49,6 @@ pub use index::{build_index, select_cells, Index};
 pub use memory::{formula, Counts, Memory, Quant};
 pub use peel::peel;
 pub use render::render;
-pub use request::check_request;
 pub use texture::texel_extent;
 
 /// Bytes of one index-volume entry (b_iv).

@@ -5,15 +5,14 @@
 mod dvr;
 
 use crate::common::{parse_view, Failure, LayoutArg};
+use crate::request;
 use boxforge::derive::Derivation;
 use boxforge::emit::Layout;
 use boxforge::spec;
 use boxforge_runtime::gpu::Gpu;
 use boxforge_runtime::render::dvr::transfer::TransferFunction;
 use boxforge_runtime::render::iso::{self as render, HitMode, RenderOptions};
-use boxforge_runtime::render::perm;
 use boxforge_runtime::render::schemes::Scheme;
-use boxforge_runtime::request;
 use boxforge_runtime::scene::{self, Conversion};
 
 #[derive(clap::Args)]
@@ -164,7 +163,7 @@ pub fn run(a: RenderArgs) -> Result<(), Failure> {
     request::check_render_numbers(size, a.step, a.iso, az, el)?;
     request::check_output_file(&a.out, "--out")?;
     let dvr = request::check_render_mode(mode, a.tf.as_deref(), a.no_preintegration)?;
-    let perm = perm::check_request(cache, mode, a.qc, a.qc_grad)?;
+    let perm = request::check_cache(cache, mode, a.qc, a.qc_grad)?;
     if a.peel && perm.is_none() {
         return Err(Failure("--peel peels the PERM cache: add --cache perm (with --mode dvr)".into()));
     }
@@ -212,6 +211,7 @@ pub fn run(a: RenderArgs) -> Result<(), Failure> {
         )));
     }
     let conversion = if a.resample { Conversion::Resample } else { Conversion::Subset };
+    request::check_ml_volume(&a.volume, &lat)?;
     let vol = scene::load(&a.volume, a.raw.as_deref(), &lat, conversion).map_err(|e| Failure(e.to_string()))?;
     let (lo, hi) = vol.data.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
     if dvr.as_deref() == Some("") {
@@ -271,7 +271,7 @@ pub fn run(a: RenderArgs) -> Result<(), Failure> {
             render::render(&gpu, &d, &vol, layout, &opts)
         }
     }
-    .map_err(|e| Failure(e.to_string()))?;
+    .map_err(|e| Failure(request::volume_over_limits(&vol, layout, &gpu.limits()).unwrap_or_else(|| e.to_string())))?;
     let out = &a.out;
     render::write_png(out, frame.width, frame.height, &frame.rgba)
         .map_err(|e| Failure(format!("cannot write {}: {e}", out.display())))?;
