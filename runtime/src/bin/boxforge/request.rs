@@ -7,7 +7,9 @@
 
 use boxforge::emit::Layout;
 use boxforge_runtime::limits::{self, LimitError};
-use boxforge_runtime::render::perm::{formula, Counts, Quant, B_DB, B_GB, B_SB, DEFAULT_QC, MAX_BYTES};
+use boxforge_runtime::render::perm::{
+    formula, Counts, PermError, Quant, B_DB, B_GB, B_SB, DEFAULT_QC, MAX_BYTES, MAX_ROW,
+};
 use boxforge_runtime::volume::LatticeVolume;
 
 /// Largest image edge `render` accepts (before the adapter's own limits).
@@ -284,6 +286,30 @@ pub fn check_cache(cache: &str, mode: &str, qc: Option<u32>, qc_grad: Option<u32
         ));
     }
     Ok(Some(quant))
+}
+
+/// A PERM build's refusal, worded with the flags that size the cache (a
+/// GPU error, as the CLI has always printed it).
+pub fn perm_failure(e: &PermError) -> String {
+    match e {
+        PermError::RowTooLong { cells } => format!(
+            "GPU error: --cache perm: the volume is {cells} cells along x, over the {MAX_ROW} a 15-bit row index addresses"
+        ),
+        PermError::TooLarge { counts, need, limit } => format!(
+            "GPU error: --qc {} --qc-grad {}: the PERM cache of {} candidate cells needs {}, over the limit of {limit} bytes; use a smaller --qc or --qc-grad",
+            counts.quant.density,
+            counts.quant.gradient,
+            counts.candidates,
+            need.describe()
+        ),
+        PermError::IndexVolume { cells, bytes, binding } => format!(
+            "GPU error: --cache perm: the index volume of {cells} cells needs {bytes} bytes, over this device's storage-binding limit of {binding} bytes; downsample the volume"
+        ),
+        PermError::Texture { label, words, max } => format!(
+            "GPU error: --cache perm: the {label} need {words} words, more than a 3D texture of {max}^3 texels holds; use a smaller --qc or --qc-grad"
+        ),
+        PermError::Gpu(e) => e.to_string(),
+    }
 }
 
 #[cfg(test)]

@@ -44,7 +44,7 @@ mod peel;
 mod render;
 mod texture;
 
-pub use build::PermCache;
+pub use build::{PermCache, PermError};
 pub use index::{build_index, select_cells, Index};
 pub use memory::{formula, Counts, Memory, Quant};
 pub use peel::peel;

@@ -268,10 +268,10 @@ pub fn run(a: RenderArgs) -> Result<(), Failure> {
                 frames: 1,
                 ..RenderOptions::default()
             };
-            render::render(&gpu, &d, &vol, layout, &opts)
+            render::render(&gpu, &d, &vol, layout, &opts).map_err(|e| e.to_string())
         }
     }
-    .map_err(|e| Failure(request::volume_over_limits(&vol, layout, &gpu.limits()).unwrap_or_else(|| e.to_string())))?;
+    .map_err(|e| Failure(request::volume_over_limits(&vol, layout, &gpu.limits()).unwrap_or(e)))?;
     let out = &a.out;
     render::write_png(out, frame.width, frame.height, &frame.rgba)
         .map_err(|e| Failure(format!("cannot write {}: {e}", out.display())))?;
