@@ -170,7 +170,7 @@ pub fn run(a: RenderArgs) -> Result<(), Failure> {
     let pt = request::check_renderer(a.renderer.name(), mode, cache, a.perspective)?;
     // An empty name: no --tf given, the default ramp once the data's range is known.
     let mut tf = match &dvr {
-        Some(name) if !name.is_empty() => Some(TransferFunction::load(name)?),
+        Some(name) if !name.is_empty() => Some(TransferFunction::load(name).map_err(|e| Failure(format!("--tf {e}")))?),
         _ => None,
     };
     let layout = Layout::from(a.layout);
