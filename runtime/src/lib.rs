@@ -15,13 +15,13 @@
 
 pub mod bench;
 pub mod gpu;
+pub mod limits;
 #[cfg(feature = "pictures")]
 pub mod pictures;
 pub mod prefilter;
 pub mod progress;
 pub mod references;
 pub mod render;
-pub mod request;
 pub mod scene;
 pub mod verify;
 pub mod volume;

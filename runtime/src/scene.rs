@@ -40,10 +40,11 @@ pub fn load(
     conversion: Conversion,
 ) -> Result<LatticeVolume, VolumeError> {
     if let Some(n) = spec.strip_prefix("ml:") {
-        let n = crate::request::parse_ml_n(n).map_err(|reason| VolumeError::BadDims { dims: [0; 3], reason })?;
+        let n =
+            crate::limits::parse_ml_n(n).map_err(|e| VolumeError::BadDims { dims: [0; 3], reason: e.to_string() })?;
         let e = matched_edge(lattice, (n as f64).powi(3));
-        crate::request::check_samples([e, e, e], spec)
-            .map_err(|reason| VolumeError::BadDims { dims: [0; 3], reason })?;
+        crate::limits::check_samples([e, e, e], spec)
+            .map_err(|e| VolumeError::BadDims { dims: [0; 3], reason: e.to_string() })?;
         return LatticeVolume::marschner_lobb(lattice, [e, e, e]);
     }
     let path = Path::new(spec);

@@ -167,9 +167,7 @@ impl Gpu {
     /// Compiles WGSL; validation errors (with naga's spans) become an error.
     pub fn compile(&self, label: &str, source: &str) -> Result<wgpu::ShaderModule, GpuError> {
         // naga first: its message carries the source spans.
-        if let Err(e) = naga_check(source, label) {
-            return Err(GpuError::Shader { label: label.into(), message: e });
-        }
+        naga_check(source, label)?;
         let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
         let module = self.device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some(label),
@@ -306,11 +304,12 @@ fn one_line(s: &str) -> String {
     s.lines().map(str::trim).filter(|l| !l.is_empty()).collect::<Vec<_>>().join(": ")
 }
 
-/// Parses and validates WGSL with naga; Err holds the rendered message.
-pub fn naga_check(source: &str, label: &str) -> Result<(), String> {
+/// Parses and validates WGSL with naga; the error is [`GpuError::Shader`]
+/// with naga's rendered message (source spans included).
+pub fn naga_check(source: &str, label: &str) -> Result<(), GpuError> {
     let r = boxforge::validate::validate_wgsl(source, label);
     match r.error {
-        Some(e) => Err(e),
+        Some(message) => Err(GpuError::Shader { label: label.into(), message }),
         None => Ok(()),
     }
 }

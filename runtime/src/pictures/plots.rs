@@ -19,17 +19,38 @@ fn register_font() {
     });
 }
 
+/// Why a plot could not be drawn.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum PlotError {
+    /// No point with a positive x (nothing to draw on a log axis).
+    #[error("a log-log plot needs positive x values")]
+    NoPositiveX,
+    /// No point with a positive y.
+    #[error("a log-log plot needs positive y values")]
+    NoPositiveY,
+    /// No bars, or none positive.
+    #[error("a bar chart needs at least one positive value")]
+    NoPositiveBar,
+    /// plotters failed to lay out or draw the chart.
+    #[error("{0}")]
+    Draw(String),
+}
+
+fn draw_error(e: DrawingAreaErrorKind<std::io::Error>) -> PlotError {
+    PlotError::Draw(e.to_string())
+}
+
 type Area<'a> = DrawingArea<SVGBackend<'a>, plotters::coord::Shift>;
 
 /// A 640 x 420 white SVG canvas handed to `draw`, returned as SVG text.
-fn svg(draw: impl FnOnce(&Area) -> Result<(), String>) -> Result<String, String> {
+fn svg(draw: impl FnOnce(&Area) -> Result<(), PlotError>) -> Result<String, PlotError> {
     register_font();
     let mut out = String::new();
     {
         let root = SVGBackend::with_string(&mut out, (640, 420)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| e.to_string())?;
+        root.fill(&WHITE).map_err(draw_error)?;
         draw(&root)?;
-        root.present().map_err(|e| e.to_string())?;
+        root.present().map_err(draw_error)?;
     }
     Ok(out)
 }
@@ -49,11 +70,11 @@ fn log_range(series: &[Series], axis: impl Fn(&(f64, f64)) -> f64) -> Option<(f6
 ///
 /// When no point is positive on both axes (nothing to draw on log axes), or
 /// plotters fails to lay the chart out.
-pub fn log_log(title: &str, x_label: &str, y_label: &str, series: &[Series]) -> Result<String, String> {
-    let (x0, x1) = log_range(series, |p| p.0).ok_or("a log-log plot needs positive x values")?;
-    let (y0, y1) = log_range(series, |p| p.1).ok_or("a log-log plot needs positive y values")?;
+pub fn log_log(title: &str, x_label: &str, y_label: &str, series: &[Series]) -> Result<String, PlotError> {
+    let (x0, x1) = log_range(series, |p| p.0).ok_or(PlotError::NoPositiveX)?;
+    let (y0, y1) = log_range(series, |p| p.1).ok_or(PlotError::NoPositiveY)?;
     svg(|root| {
-        let e = |x: DrawingAreaErrorKind<std::io::Error>| x.to_string();
+        let e = draw_error;
         let mut chart = ChartBuilder::on(root)
             .caption(title, ("sans-serif", 20))
             .margin(12)
@@ -88,14 +109,14 @@ pub fn log_log(title: &str, x_label: &str, y_label: &str, series: &[Series]) -> 
 /// # Errors
 ///
 /// When there are no bars or no positive value, or plotters fails.
-pub fn bars(title: &str, y_label: &str, bars: &[(String, f64)]) -> Result<String, String> {
+pub fn bars(title: &str, y_label: &str, bars: &[(String, f64)]) -> Result<String, PlotError> {
     let top = bars.iter().map(|b| b.1).filter(|v| v.is_finite()).fold(0f64, f64::max);
     if bars.is_empty() || top <= 0.0 {
-        return Err("a bar chart needs at least one positive value".into());
+        return Err(PlotError::NoPositiveBar);
     }
     let n = bars.len();
     svg(|root| {
-        let e = |x: DrawingAreaErrorKind<std::io::Error>| x.to_string();
+        let e = draw_error;
         let mut chart = ChartBuilder::on(root)
             .caption(title, ("sans-serif", 20))
             .margin(12)

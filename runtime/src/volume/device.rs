@@ -25,8 +25,8 @@ pub struct DeviceVolume {
 impl DeviceVolume {
     pub fn new(gpu: &Gpu, v: &LatticeVolume, layout: Layout) -> Result<DeviceVolume, GpuError> {
         if layout == Layout::Embedded {
-            crate::request::check_volume_limits(v.dims, v.data.len() as u64 * 4, true, &gpu.limits())
-                .map_err(GpuError::Runtime)?;
+            crate::limits::check_volume_limits(v.dims, v.data.len() as u64 * 4, true, &gpu.limits())
+                .map_err(|e| GpuError::Runtime(e.to_string()))?;
         }
         match layout {
             Layout::Embedded => {
@@ -43,8 +43,8 @@ impl DeviceVolume {
             }
             Layout::Packed => {
                 let (words, grid) = v.packed().map_err(|e| GpuError::Runtime(e.to_string()))?;
-                crate::request::check_volume_limits(v.dims, words.len() as u64 * 4, false, &gpu.limits())
-                    .map_err(GpuError::Runtime)?;
+                crate::limits::check_volume_limits(v.dims, words.len() as u64 * 4, false, &gpu.limits())
+                    .map_err(|e| GpuError::Runtime(e.to_string()))?;
                 let samples = gpu.storage_buffer("packed samples", bytemuck::cast_slice(&words), false);
                 let grid = gpu.uniform_buffer("packed grid", bytemuck::cast_slice(&grid));
                 Ok(DeviceVolume {

@@ -24,6 +24,49 @@ use boxforge::Filter;
 use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
 
+/// Why a site could not be written or served, or a `.bfv` file read.
+#[derive(Debug, thiserror::Error)]
+pub enum WebError {
+    /// The bytes do not start with the `.bfv` header.
+    #[error("not a .bfv volume (it must start with BFVOL, version 1)")]
+    NotBfv,
+    /// The header's dims overflow a sample count.
+    #[error("dims overflow")]
+    DimsOverflow,
+    /// The file's length does not match its dims.
+    #[error("a {}x{}x{} .bfv needs {expected} bytes, the file has {actual}", dims[0], dims[1], dims[2])]
+    BfvSize { dims: [usize; 3], expected: usize, actual: usize },
+    /// A volume could not be read or built.
+    #[error(transparent)]
+    Volume(#[from] crate::volume::VolumeError),
+    /// A filter could not be derived or its modules emitted or written.
+    #[error(transparent)]
+    Generator(#[from] boxforge::Error),
+    /// A shader of the site could not be assembled.
+    #[error(transparent)]
+    Shader(#[from] crate::gpu::GpuError),
+    /// A transfer-function preset did not load.
+    #[error(transparent)]
+    TransferFunction(#[from] crate::render::dvr::transfer::TfError),
+    /// The catalog did not serialize.
+    #[error("cannot write catalog.json: {0}")]
+    Catalog(#[from] serde_json::Error),
+    /// A folder of the site could not be created.
+    #[error("cannot create {}: {error}", dir.display())]
+    CreateDir { dir: PathBuf, error: std::io::Error },
+    /// The MNI head is not in the repository's data folder.
+    #[error(
+        "the MNI head data/mni152_t1_1mm.nii.gz is missing: run from the repository root, or build the site without it"
+    )]
+    MissingMni,
+    /// [`serve`] was given a folder without a site.
+    #[error("{} holds no index.html: build the site there first", root.display())]
+    NoSite { root: PathBuf },
+    /// [`serve`] could not bind its port.
+    #[error("cannot listen on 127.0.0.1:{port}: {error} (pick another port, or port 0 for any free one)")]
+    Listen { port: u16, error: String },
+}
+
 /// The page, its script and style sheet (in `runtime/web/`), written as they are.
 const ASSETS: &[(&str, &str)] = &[
     ("index.html", include_str!("../../web/index.html")),
@@ -87,25 +130,18 @@ pub fn volume_file(v: &Volume) -> Vec<u8> {
 }
 
 /// Reads a `.bfv` file back (the inverse of [`volume_file`]).
-pub fn parse_volume_file(bytes: &[u8]) -> Result<Volume, String> {
+pub fn parse_volume_file(bytes: &[u8]) -> Result<Volume, WebError> {
     if bytes.len() < 20 || &bytes[..8] != BFV_MAGIC {
-        return Err("not a .bfv volume (it must start with BFVOL, version 1)".into());
+        return Err(WebError::NotBfv);
     }
     let word = |i: usize| u32::from_le_bytes(bytes[i..i + 4].try_into().expect("4 bytes")) as usize;
     let dims = [word(8), word(12), word(16)];
-    let count = dims.iter().try_fold(1usize, |a, &n| a.checked_mul(n)).ok_or("dims overflow")?;
+    let count = dims.iter().try_fold(1usize, |a, &n| a.checked_mul(n)).ok_or(WebError::DimsOverflow)?;
     if bytes.len() != 20 + count * 4 {
-        return Err(format!(
-            "a {}x{}x{} .bfv needs {} bytes, the file has {}",
-            dims[0],
-            dims[1],
-            dims[2],
-            20 + count * 4,
-            bytes.len()
-        ));
+        return Err(WebError::BfvSize { dims, expected: 20 + count * 4, actual: bytes.len() });
     }
     let data = bytes[20..].chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes"))).collect();
-    Volume::new(dims, data).map_err(|e| e.to_string())
+    Ok(Volume::new(dims, data)?)
 }
 
 /// The viewer's view of a filter: lattice, support, shaders (paths in the site).
@@ -159,7 +195,7 @@ fn filter_entry(d: &Derivation, layouts: &[Layout]) -> Value {
 /// extinction) per entry) then the pre-integration table for segments of
 /// `step` cells ([`crate::render::dvr::transfer::Tf1d::preintegrate`], row = front
 /// value), all f32 little-endian; and its catalog entry.
-fn transfer_file(name: &str, step: f32) -> Result<(Value, Vec<u8>), String> {
+fn transfer_file(name: &str, step: f32) -> Result<(Value, Vec<u8>), WebError> {
     let tf = crate::render::dvr::transfer::TransferFunction::load(name)?;
     let table = tf.table();
     let pi = table.preintegrate(step as f64);
@@ -182,7 +218,7 @@ pub fn write_site(
     filters: &[Filter],
     o: &SiteOptions,
     mut progress: impl FnMut(usize, usize, &str),
-) -> Result<Site, String> {
+) -> Result<Site, WebError> {
     let mut files: Vec<(String, Vec<u8>)> =
         ASSETS.iter().map(|(n, s)| (n.to_string(), s.as_bytes().to_vec())).collect();
     let mut entries = Vec::new();
@@ -190,10 +226,8 @@ pub fn write_site(
     let mut names = Vec::new();
     for (i, f) in filters.iter().enumerate() {
         progress(i, filters.len(), &f.name);
-        let d = Derivation::new(f).map_err(|e| e.to_string())?;
-        for (name, source) in
-            generated_files(&d, WEB_COMMAND, &ALL_LAYOUTS, &ALL_VARIANTS).map_err(|e| e.to_string())?
-        {
+        let d = Derivation::new(f)?;
+        for (name, source) in generated_files(&d, WEB_COMMAND, &ALL_LAYOUTS, &ALL_VARIANTS)? {
             if name.ends_with(".wgsl") {
                 modules.push(format!("modules/{name}"));
                 files.push((format!("modules/{name}"), source.into_bytes()));
@@ -209,11 +243,11 @@ pub fn write_site(
             .collect();
         for &layout in &layouts {
             for hit in [HitMode::Step, HitMode::Exact] {
-                let source = raycast_shader(&d, layout, hit, (1, [1, 1, 1]), WEB_COMMAND).map_err(|e| e.to_string())?;
+                let source = raycast_shader(&d, layout, hit, (1, [1, 1, 1]), WEB_COMMAND)?;
                 let path = format!("shaders/{}.{}.iso-{}.wgsl", f.name, layout.name(), hit.as_str());
                 files.push((path, source.into_bytes()));
             }
-            let source = crate::render::dvr::shader_source(&d, layout).map_err(|e| e.to_string())?;
+            let source = crate::render::dvr::shader_source(&d, layout)?;
             files.push((format!("shaders/{}.{}.dvr.wgsl", f.name, layout.name()), source.into_bytes()));
         }
         entries.push(filter_entry(&d, &layouts));
@@ -257,16 +291,16 @@ pub fn write_site(
             "step": crate::render::iso::RenderOptions::default().step,
         },
     });
-    let text = serde_json::to_string_pretty(&catalog).map_err(|e| e.to_string())? + "\n";
+    let text = serde_json::to_string_pretty(&catalog)? + "\n";
     files.push(("catalog.json".into(), text.into_bytes()));
     let mut written = Vec::new();
     let mut bytes = 0u64;
     for (rel, data) in &files {
         let path: PathBuf = out.join(rel);
         if let Some(dir) = path.parent() {
-            std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+            std::fs::create_dir_all(dir).map_err(|error| WebError::CreateDir { dir: dir.to_path_buf(), error })?;
         }
-        write_atomic(&path, data).map_err(|e| e.to_string())?;
+        write_atomic(&path, data)?;
         bytes += data.len() as u64;
         written.push(rel.clone());
     }
@@ -275,10 +309,9 @@ pub fn write_site(
 
 /// The MNI head of the repository's data folder, box-averaged `downsample`
 /// times per axis (the 1 mm volume is 182x218x182, 29 MB as f32), for the site.
-pub fn mni_volume(downsample: usize) -> Result<SiteVolume, String> {
-    let path = crate::scene::data_file("mni152_t1_1mm.nii.gz")
-        .ok_or("the MNI head data/mni152_t1_1mm.nii.gz is missing: run from the repository root, or pass --no-mni")?;
-    let v = Volume::load_nifti(&path).map_err(|e| e.to_string())?;
+pub fn mni_volume(downsample: usize) -> Result<SiteVolume, WebError> {
+    let path = crate::scene::data_file("mni152_t1_1mm.nii.gz").ok_or(WebError::MissingMni)?;
+    let v = Volume::load_nifti(&path)?;
     let v = v.downsample(downsample);
     Ok(SiteVolume {
         name: "mni".into(),
@@ -302,10 +335,10 @@ mod tests {
         let bytes = volume_file(&v);
         assert_eq!(bytes.len(), 20 + 12 * 4);
         assert_eq!(parse_volume_file(&bytes).unwrap(), v);
-        assert!(parse_volume_file(&bytes[..bytes.len() - 1]).unwrap_err().contains("needs 68 bytes"));
+        assert!(parse_volume_file(&bytes[..bytes.len() - 1]).unwrap_err().to_string().contains("needs 68 bytes"));
         let mut bad = bytes.clone();
         bad[0] = b'X';
-        assert!(parse_volume_file(&bad).unwrap_err().contains("BFVOL"));
+        assert!(parse_volume_file(&bad).unwrap_err().to_string().contains("BFVOL"));
     }
 
     #[test]

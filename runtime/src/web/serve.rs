@@ -1,6 +1,7 @@
 //! A static file server on 127.0.0.1 for the viewer (`boxforge web --serve`):
 //! GET and HEAD of the files under one folder, nothing else.
 
+use super::WebError;
 use std::path::{Component, Path, PathBuf};
 
 /// A bound server: [`Server::url`] to open, [`Server::run`] to answer requests.
@@ -11,17 +12,12 @@ pub struct Server {
 }
 
 /// Binds 127.0.0.1:`port` (0: any free port) for the files under `root`.
-pub fn serve(root: &Path, port: u16) -> Result<Server, String> {
+pub fn serve(root: &Path, port: u16) -> Result<Server, WebError> {
     if !root.join("index.html").is_file() {
-        return Err(format!(
-            "{} holds no index.html: build the site first with boxforge web -o {}",
-            root.display(),
-            root.display()
-        ));
+        return Err(WebError::NoSite { root: root.to_path_buf() });
     }
-    let http = tiny_http::Server::http(("127.0.0.1", port)).map_err(|e| {
-        format!("cannot listen on 127.0.0.1:{port}: {e} (pick another --port, or --port 0 for any free one)")
-    })?;
+    let http =
+        tiny_http::Server::http(("127.0.0.1", port)).map_err(|e| WebError::Listen { port, error: e.to_string() })?;
     let port = http.server_addr().to_ip().map(|a| a.port()).unwrap_or(port);
     Ok(Server { http, root: root.to_path_buf(), url: format!("http://127.0.0.1:{port}/") })
 }

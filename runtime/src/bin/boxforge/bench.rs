@@ -3,10 +3,11 @@
 //! Markdown file (`--derive`, `--literature`, `--perm`).
 
 use crate::common::{Failure, Section};
+use crate::request;
 use boxforge_runtime::bench;
 use boxforge_runtime::gpu::Gpu;
 use boxforge_runtime::volume::Volume;
-use boxforge_runtime::{progress, request, scene};
+use boxforge_runtime::{progress, scene};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]

@@ -2,10 +2,11 @@
 //! names, derivation with a progress bar, `--view`, the value enums of
 //! several subcommands and the Markdown-section writer of `bench`.
 
+use crate::request;
 use boxforge::derive::Derivation;
 use boxforge::emit::{EvalForm, FetchMode, Layout, Variant};
 use boxforge::spec;
-use boxforge_runtime::{progress, request};
+use boxforge_runtime::progress;
 use std::path::Path;
 
 /// `println!` that ends the process quietly when stdout is closed (e.g.

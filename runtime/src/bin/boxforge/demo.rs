@@ -220,10 +220,12 @@ pub fn run(out: &Path, size: u32, adapter: Option<&str>) -> Result<(), String> {
         FILTERS.len(),
     );
     pictures::write_png(&out.join("errors.png"), &errors).map_err(|e| e.to_string())?;
-    let plot_rms = plots::log_log("RMS error vs samples (Marschner-Lobb)", "samples", "RMS error", &rms_vs_samples)?;
+    let plot_rms = plots::log_log("RMS error vs samples (Marschner-Lobb)", "samples", "RMS error", &rms_vs_samples)
+        .map_err(|e| e.to_string())?;
     let plot_conv =
-        plots::log_log("Convergence on a smooth signal (prefiltered)", "sample spacing h", "RMS error", &convergence)?;
-    let plot_rate = plots::bars(&format!("evals/s on {adapter}"), "evals/s", &rates)?;
+        plots::log_log("Convergence on a smooth signal (prefiltered)", "sample spacing h", "RMS error", &convergence)
+            .map_err(|e| e.to_string())?;
+    let plot_rate = plots::bars(&format!("evals/s on {adapter}"), "evals/s", &rates).map_err(|e| e.to_string())?;
     for (f, svg) in [("plot_rms.svg", &plot_rms), ("plot_convergence.svg", &plot_conv), ("plot_evals.svg", &plot_rate)]
     {
         std::fs::write(out.join(f), svg).map_err(|e| format!("cannot write {}: {e}", out.join(f).display()))?;

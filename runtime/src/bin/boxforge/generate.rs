@@ -2,10 +2,10 @@
 //! reports into a directory (or, with --check, compare with it).
 
 use crate::common::{derive_all, filter_names, Failure, FetchArg, FormArg, LayoutArg, VariantArg};
+use crate::request;
 use boxforge::build::output::{self, ALL_LAYOUTS, ALL_VARIANTS};
 use boxforge::emit::{EvalForm, FetchMode, Layout, Variant};
 use boxforge::spec;
-use boxforge_runtime::request;
 
 #[derive(clap::Args)]
 pub struct GenerateArgs {

@@ -9,6 +9,7 @@ mod generate;
 mod inspect;
 mod list;
 mod render;
+mod request;
 mod validate;
 mod verify;
 mod web;
@@ -110,8 +111,8 @@ fn run(cli: Cli) -> Result<(), Failure> {
         Command::Verify(a) => verify::run(a),
         Command::Render(a) => render::run(a),
         Command::Demo(DemoArgs { out, size, adapter }) => {
-            boxforge_runtime::request::check_image_edge(size)?;
-            boxforge_runtime::request::check_output_dir(&out, "--out")?;
+            crate::request::check_image_edge(size)?;
+            crate::request::check_output_dir(&out, "--out")?;
             Ok(demo::run(&out, size, adapter.as_deref())?)
         }
         Command::Bench(a) => bench::run(a),

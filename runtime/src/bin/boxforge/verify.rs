@@ -2,11 +2,11 @@
 //! exact evaluator; exit 1 when it fails.
 
 use crate::common::{Failure, FetchArg, FormArg, LayoutArg, VariantArg};
+use crate::request;
 use boxforge::derive::Derivation;
 use boxforge::emit::{Bounds, EvalForm, FetchMode, Layout, Variant};
 use boxforge::spec;
 use boxforge_runtime::gpu::Gpu;
-use boxforge_runtime::request;
 
 #[derive(clap::Args)]
 pub struct VerifyArgs {

@@ -2,8 +2,9 @@
 //! with --serve.
 
 use crate::common::Failure;
+use crate::request;
 use boxforge::spec;
-use boxforge_runtime::{request, web};
+use boxforge_runtime::web;
 
 #[derive(clap::Args)]
 pub struct WebArgs {
@@ -41,11 +42,12 @@ pub fn run(a: WebArgs) -> Result<(), Failure> {
             }
         }
         let filters = names.iter().map(|n| spec::resolve(n)).collect::<Result<Vec<_>, _>>()?;
-        let volumes = if no_mni { vec![] } else { vec![web::mni_volume(2)?] };
+        let volumes = if no_mni { vec![] } else { vec![web::mni_volume(2).map_err(failure)?] };
         let started = std::time::Instant::now();
         let site = web::write_site(&dir, &filters, &web::SiteOptions { volumes }, |i, n, name| {
             eprintln!("web: [{}/{n}] {name}", i + 1)
-        })?;
+        })
+        .map_err(failure)?;
         outln!(
             "{}: viewer for {} filters ({}), {} catalog modules, {} files, {:.1} MB in {:.1} s",
             dir.display(),
@@ -58,7 +60,7 @@ pub fn run(a: WebArgs) -> Result<(), Failure> {
         );
     }
     if serve {
-        let server = web::serve(&dir, port)?;
+        let server = web::serve(&dir, port).map_err(failure)?;
         outln!("serving {} at {} (Ctrl-C to stop)", dir.display(), server.url());
         server.run();
     } else {
@@ -68,4 +70,24 @@ pub fn run(a: WebArgs) -> Result<(), Failure> {
         );
     }
     Ok(())
+}
+
+/// A refusal of the site's writer or server, worded with this command's flags.
+fn failure(e: web::WebError) -> Failure {
+    use web::WebError;
+    Failure(match e {
+        WebError::MissingMni => {
+            "the MNI head data/mni152_t1_1mm.nii.gz is missing: run from the repository root, or pass --no-mni".into()
+        }
+        WebError::NoSite { root } => format!(
+            "{} holds no index.html: build the site first with boxforge web -o {}",
+            root.display(),
+            root.display()
+        ),
+        WebError::Listen { port, error } => {
+            format!("cannot listen on 127.0.0.1:{port}: {error} (pick another --port, or --port 0 for any free one)")
+        }
+        WebError::TransferFunction(e) => format!("--tf {e}"),
+        e => e.to_string(),
+    })
 }

@@ -124,7 +124,48 @@ pub struct TransferFunction {
     pub points: Vec<ControlPoint>,
 }
 
-/// How to write a `--tf` argument, for error messages.
+/// Why a transfer function was refused: the preset name or file it came
+/// from, and the problem (with its fix). One line.
+#[derive(Debug, thiserror::Error)]
+#[error("{name}: {problem}")]
+pub struct TfError {
+    /// The argument or source name the transfer function was asked by.
+    pub name: String,
+    pub problem: TfProblem,
+}
+
+/// What is wrong with a transfer function.
+#[derive(Debug, thiserror::Error)]
+pub enum TfProblem {
+    #[error("cannot read the transfer function file: {error}; check the path, or {}", usage())]
+    Unreadable { error: std::io::Error },
+    #[error("no such preset or file; {}", usage())]
+    Unknown,
+    #[error("not a valid transfer function ({error}); {}", usage())]
+    Json { error: serde_json::Error },
+    #[error("\"range\" [{lo}, {hi}] must be two finite numbers with lo < hi, e.g. [0, 255]")]
+    Range { lo: f64, hi: f64 },
+    #[error("colormap {}: {problem}", path.display())]
+    Colormap { path: std::path::PathBuf, problem: String },
+    #[error("give either \"points\" or \"colormap\", not both")]
+    PointsAndColormap,
+    #[error("no \"points\" (or \"colormap\": a PNG whose first row spans \"range\"); {}", usage())]
+    NoPoints,
+    #[error("{count} control point(s): give at least two in \"points\" (values increasing inside \"range\")")]
+    TooFewPoints { count: usize },
+    #[error("point {index}: value {value} is outside \"range\" [{lo}, {hi}]; widen the range or move the point")]
+    Outside { index: usize, value: f64, lo: f64, hi: f64 },
+    #[error(
+        "point {index}: value {value} is not above the previous point's {previous}; list points by increasing value"
+    )]
+    NotIncreasing { index: usize, value: f64, previous: f64 },
+    #[error("point {index}: color {color:?} must have three components in [0, 1], e.g. [1, 0.5, 0]")]
+    Color { index: usize, color: [f64; 3] },
+    #[error("point {index}: opacity {opacity} must be in [0, 1]")]
+    Opacity { index: usize, opacity: f64 },
+}
+
+/// How to name a transfer function, for error messages.
 fn usage() -> String {
     let names: Vec<&str> = PRESETS.iter().map(|p| p.0).collect();
     format!(
@@ -136,7 +177,7 @@ fn usage() -> String {
 impl TransferFunction {
     /// A preset by name, or a JSON file. Errors are one line naming the
     /// argument, the problem and the fix.
-    pub fn load(arg: &str) -> Result<TransferFunction, String> {
+    pub fn load(arg: &str) -> Result<TransferFunction, TfError> {
         if let Some((name, text)) = PRESETS.iter().find(|p| p.0 == arg) {
             return TransferFunction::parse(text, name);
         }
@@ -144,10 +185,10 @@ impl TransferFunction {
         let is_file_like = arg.ends_with(".json") || arg.contains('/') || arg.contains('\\');
         match std::fs::read_to_string(path) {
             Ok(text) => TransferFunction::parse_in(&text, arg, path.parent()),
-            Err(e) if is_file_like || path.exists() => {
-                Err(format!("--tf {arg}: cannot read the transfer function file: {e}; check the path, or {}", usage()))
+            Err(error) if is_file_like || path.exists() => {
+                Err(TfError { name: arg.to_string(), problem: TfProblem::Unreadable { error } })
             }
-            Err(_) => Err(format!("--tf {arg}: no such preset or file; {}", usage())),
+            Err(_) => Err(TfError { name: arg.to_string(), problem: TfProblem::Unknown }),
         }
     }
 
@@ -176,65 +217,53 @@ impl TransferFunction {
     /// Parses and checks the JSON text of a transfer function; `source`
     /// names it in the (one-line) error. A `colormap` is read relative to
     /// the working directory.
-    pub fn parse(text: &str, source: &str) -> Result<TransferFunction, String> {
+    pub fn parse(text: &str, source: &str) -> Result<TransferFunction, TfError> {
         TransferFunction::parse_in(text, source, None)
     }
 
     /// [`TransferFunction::parse`] with a `colormap` path relative to `dir`
     /// (the JSON file's folder).
-    pub fn parse_in(text: &str, source: &str, dir: Option<&std::path::Path>) -> Result<TransferFunction, String> {
-        let bad = |what: String| format!("--tf {source}: {what}");
-        let file: TfFile =
-            serde_json::from_str(text).map_err(|e| bad(format!("not a valid transfer function ({e}); {}", usage())))?;
+    pub fn parse_in(text: &str, source: &str, dir: Option<&std::path::Path>) -> Result<TransferFunction, TfError> {
+        let bad = |problem: TfProblem| TfError { name: source.to_string(), problem };
+        let file: TfFile = serde_json::from_str(text).map_err(|error| bad(TfProblem::Json { error }))?;
         let [lo, hi] = file.range;
         if !(lo.is_finite() && hi.is_finite() && lo < hi) {
-            return Err(bad(format!("\"range\" [{lo}, {hi}] must be two finite numbers with lo < hi, e.g. [0, 255]")));
+            return Err(bad(TfProblem::Range { lo, hi }));
         }
         let points = match (file.points, &file.colormap) {
             (Some(p), None) => p,
             (None, Some(c)) => {
                 let path = dir.map_or_else(|| std::path::PathBuf::from(c), |d| d.join(c));
-                colormap_points(&path, [lo, hi]).map_err(|e| bad(format!("colormap {}: {e}", path.display())))?
+                colormap_points(&path, [lo, hi])
+                    .map_err(|problem| bad(TfProblem::Colormap { path: path.clone(), problem }))?
             }
             (Some(_), Some(_)) => {
-                return Err(bad("give either \"points\" or \"colormap\", not both".into()));
+                return Err(bad(TfProblem::PointsAndColormap));
             }
             (None, None) => {
-                return Err(bad(format!(
-                    "no \"points\" (or \"colormap\": a PNG whose first row spans \"range\"); {}",
-                    usage()
-                )));
+                return Err(bad(TfProblem::NoPoints));
             }
         };
         let file = TfFileChecked { range: file.range, points };
         if file.points.len() < 2 {
-            return Err(bad(format!(
-                "{} control point(s): give at least two in \"points\" (values increasing inside \"range\")",
-                file.points.len()
-            )));
+            return Err(bad(TfProblem::TooFewPoints { count: file.points.len() }));
         }
         for (i, p) in file.points.iter().enumerate() {
             if !p.value.is_finite() || p.value < lo || p.value > hi {
-                return Err(bad(format!(
-                    "point {i}: value {} is outside \"range\" [{lo}, {hi}]; widen the range or move the point",
-                    p.value
-                )));
+                return Err(bad(TfProblem::Outside { index: i, value: p.value, lo, hi }));
             }
             if i > 0 && p.value <= file.points[i - 1].value {
-                return Err(bad(format!(
-                    "point {i}: value {} is not above the previous point's {}; list points by increasing value",
-                    p.value,
-                    file.points[i - 1].value
-                )));
+                return Err(bad(TfProblem::NotIncreasing {
+                    index: i,
+                    value: p.value,
+                    previous: file.points[i - 1].value,
+                }));
             }
             if p.color.iter().any(|c| !c.is_finite() || !(0.0..=1.0).contains(c)) {
-                return Err(bad(format!(
-                    "point {i}: color {:?} must have three components in [0, 1], e.g. [1, 0.5, 0]",
-                    p.color
-                )));
+                return Err(bad(TfProblem::Color { index: i, color: p.color }));
             }
             if !p.opacity.is_finite() || !(0.0..=1.0).contains(&p.opacity) {
-                return Err(bad(format!("point {i}: opacity {} must be in [0, 1]", p.opacity)));
+                return Err(bad(TfProblem::Opacity { index: i, opacity: p.opacity }));
             }
         }
         Ok(TransferFunction { name: source.to_string(), range: file.range, points: file.points })
@@ -492,7 +521,7 @@ mod tests {
         let (c, a) = tf.eval(15.0);
         assert!((c[0] - 0.5).abs() < 1e-12 && (c[1] - 0.5).abs() < 1e-12 && (a - 0.3).abs() < 1e-12);
         std::fs::write(&json, r#"{"range": [0, 30], "colormap": "tall.png"}"#).unwrap();
-        let e = TransferFunction::load(json.to_str().unwrap()).unwrap_err();
+        let e = TransferFunction::load(json.to_str().unwrap()).unwrap_err().to_string();
         assert!(e.contains("at least 2"), "{e}");
         let _ = std::fs::remove_dir_all(&dir);
     }
@@ -522,17 +551,17 @@ mod tests {
             ),
             (r#"{"range": [0, 1], "points": [], "colour": 3}"#, "colour"),
         ] {
-            let e = TransferFunction::parse(text, "x.json").unwrap_err();
-            assert!(e.starts_with("--tf x.json: ") && e.contains(fragment) && !e.contains('\n'), "{e}");
+            let e = TransferFunction::parse(text, "x.json").unwrap_err().to_string();
+            assert!(e.starts_with("x.json: ") && e.contains(fragment) && !e.contains('\n') && !e.contains("--"), "{e}");
         }
         for (text, fragment) in [
             (r#"{"range": [0, 1], "colormap": "missing.png"}"#, "cannot read"),
             (r#"{"range": [0, 1], "points": [], "colormap": "x.png"}"#, "not both"),
         ] {
-            let e = TransferFunction::parse(text, "x.json").unwrap_err();
-            assert!(e.starts_with("--tf x.json: ") && e.contains(fragment) && !e.contains('\n'), "{e}");
+            let e = TransferFunction::parse(text, "x.json").unwrap_err().to_string();
+            assert!(e.starts_with("x.json: ") && e.contains(fragment) && !e.contains('\n') && !e.contains("--"), "{e}");
         }
-        let e = TransferFunction::load("no-such-preset").unwrap_err();
+        let e = TransferFunction::load("no-such-preset").unwrap_err().to_string();
         assert!(e.contains("mni-tissue") && e.contains("no such preset"), "{e}");
     }
 }

@@ -77,6 +77,35 @@ fn grid(threads: u64) -> ((u32, u32, u32), u32) {
     ((gx as u32, groups.div_ceil(gx) as u32, 1), (gx * 64) as u32)
 }
 
+/// Why a PERM cache cannot be built: sizes over what its indices or the
+/// device address, named by quantity (the density and gradient resolutions
+/// are the positions per cell axis, N and M), or a device error.
+#[derive(Debug, thiserror::Error)]
+pub enum PermError {
+    /// A row of x longer than the 15-bit in-row index addresses.
+    #[error("the PERM cache: the volume is {cells} cells along x, over the {MAX_ROW} a 15-bit row index addresses")]
+    RowTooLong { cells: usize },
+    /// The cache of the candidate cells over [`MAX_BYTES`].
+    #[error(
+        "the PERM cache at density resolution {} and gradient resolution {}: {} candidate cells need {}, over the limit of {limit} bytes; use a smaller density or gradient resolution",
+        counts.quant.density, counts.quant.gradient, counts.candidates, need.describe()
+    )]
+    TooLarge { counts: Counts, need: Memory, limit: u64 },
+    /// The index volume over the device's storage-binding limit.
+    #[error(
+        "the PERM cache: the index volume of {cells} cells needs {bytes} bytes, over this device's storage-binding limit of {binding} bytes; downsample the volume"
+    )]
+    IndexVolume { cells: u64, bytes: u64, binding: u64 },
+    /// The densities or gradients past what a 3D texture holds.
+    #[error(
+        "the PERM cache: the {label} need {words} words, more than a 3D texture of {max}^3 texels holds; use a smaller density or gradient resolution"
+    )]
+    Texture { label: String, words: u64, max: u32 },
+    /// The device refused a step of the build.
+    #[error(transparent)]
+    Gpu(#[from] GpuError),
+}
+
 impl PermCache {
     /// Preprocesses `scene` for `table` and segments of `step` (dilation
     /// ceil(step) with pre-integration).
@@ -86,7 +115,7 @@ impl PermCache {
         quant: Quant,
         step: f32,
         preintegrate: bool,
-    ) -> Result<PermCache, GpuError> {
+    ) -> Result<PermCache, PermError> {
         Self::build_peeled(scene, table, quant, step, preintegrate, None)
     }
 
@@ -99,17 +128,14 @@ impl PermCache {
         step: f32,
         preintegrate: bool,
         peel_termination: Option<f32>,
-    ) -> Result<PermCache, GpuError> {
+    ) -> Result<PermCache, PermError> {
         let start = Instant::now();
         let (gpu, d, vol) = (scene.gpu, scene.d, scene.vol);
         let dev = &gpu.device;
         let name = &d.filter.name;
         let dims = vol.dims;
         if dims[0] > MAX_ROW {
-            return Err(GpuError::Runtime(format!(
-                "--cache perm: the volume is {} cells along x, over the {MAX_ROW} a 15-bit row index addresses",
-                dims[0]
-            )));
+            return Err(PermError::RowTooLong { cells: dims[0] });
         }
         let layout = scene.dv.layout;
         let build_src = format!(
@@ -132,20 +158,11 @@ impl PermCache {
         let need = formula(&counts);
         let limit = MAX_BYTES;
         if need.total() > limit {
-            return Err(GpuError::Runtime(format!(
-                "--qc {} --qc-grad {}: the PERM cache of {} candidate cells needs {}, over the limit of {limit} bytes; use a smaller --qc or --qc-grad",
-                quant.density,
-                quant.gradient,
-                counts.candidates,
-                need.describe()
-            )));
+            return Err(PermError::TooLarge { counts, need, limit });
         }
         let binding = gpu.limits().max_storage_buffer_binding_size.min(gpu.limits().max_buffer_size);
         if need.index_volume > binding {
-            return Err(GpuError::Runtime(format!(
-                "--cache perm: the index volume of {} cells needs {} bytes, over this device's storage-binding limit of {binding} bytes; downsample the volume",
-                counts.cells, need.index_volume
-            )));
+            return Err(PermError::IndexVolume { cells: counts.cells, bytes: need.index_volume, binding });
         }
         let span = table.hi - table.lo;
         let (n3, m3) = (quant.density.pow(3) as u64, quant.gradient.pow(3) as u64);

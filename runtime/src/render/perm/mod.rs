@@ -42,15 +42,13 @@ mod index;
 mod memory;
 mod peel;
 mod render;
-mod request;
 mod texture;
 
-pub use build::PermCache;
+pub use build::{PermCache, PermError};
 pub use index::{build_index, select_cells, Index};
 pub use memory::{formula, Counts, Memory, Quant};
 pub use peel::peel;
 pub use render::render;
-pub use request::check_request;
 pub use texture::texel_extent;
 
 /// Bytes of one index-volume entry (b_iv).

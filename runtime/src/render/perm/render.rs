@@ -1,6 +1,6 @@
 //! Rendering with a PERM cache.
 
-use super::{PermCache, Quant};
+use super::{PermCache, PermError, Quant};
 use crate::gpu::{Gpu, GpuError};
 use crate::render::dvr::transfer::{Preint, Tf1d, TransferFunction};
 use crate::render::dvr::{Caster, DvrOptions, DvrScene};
@@ -50,7 +50,7 @@ pub fn render(
     o: &DvrOptions,
     quant: Quant,
     peel: bool,
-) -> Result<(Frame, PermCache), GpuError> {
+) -> Result<(Frame, PermCache), PermError> {
     let scene = DvrScene::new(gpu, d, vol, layout, o.block)?;
     let table = tf.table();
     let pi = o.preintegrate.then(|| table.preintegrate(o.step as f64));

@@ -1,5 +1,6 @@
 //! The cache's densities and gradients in 3D textures of words.
 
+use super::PermError;
 use crate::gpu::{Gpu, GpuError};
 
 /// One part of the cache: words in an r32uint 3D texture, word i at texel
@@ -13,13 +14,10 @@ pub(super) struct CacheWords {
 }
 
 impl CacheWords {
-    pub(super) fn new(gpu: &Gpu, label: &str, words: u64) -> Result<CacheWords, GpuError> {
+    pub(super) fn new(gpu: &Gpu, label: &str, words: u64) -> Result<CacheWords, PermError> {
         let max = gpu.limits().max_texture_dimension_3d;
-        let extent = texel_extent(words, max).ok_or_else(|| {
-            GpuError::Runtime(format!(
-                "--cache perm: the {label} need {words} words, more than a 3D texture of {max}^3 texels holds; use a smaller --qc or --qc-grad"
-            ))
-        })?;
+        let extent =
+            texel_extent(words, max).ok_or_else(|| PermError::Texture { label: label.to_string(), words, max })?;
         let texture = gpu.checked(&format!("allocate {label}"), || {
             gpu.device.create_texture(&wgpu::TextureDescriptor {
                 label: Some(label),

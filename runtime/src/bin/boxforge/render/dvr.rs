@@ -48,26 +48,31 @@ pub fn frame(
     tf: &TransferFunction,
     o: &DvrOptions,
     how: How,
-) -> Result<Frame, GpuError> {
+) -> Result<Frame, String> {
+    let text = |e: GpuError| e.to_string();
     match how {
-        How::Scheme(s) => boxforge_runtime::render::schemes::render(gpu, vol, s, tf, o).map(|(f, choice)| {
-            eprintln!("{choice}");
-            f
-        }),
+        How::Scheme(s) => boxforge_runtime::render::schemes::render(gpu, vol, s, tf, o)
+            .map(|(f, choice)| {
+                eprintln!("{choice}");
+                f
+            })
+            .map_err(text),
         How::Pt(shading) => {
             if d.facts.degree != 1 {
                 eprintln!("note: projected tetrahedra interpolate linearly on the tetrahedra; --filter {} sets only the lattice and the clipped box", d.filter.name);
             }
-            boxforge_runtime::render::pt::render::render(gpu, d, vol, tf, o, shading, Normals::Vertex).map(|(f, st)| {
-                eprintln!(
-                    "projected tetrahedra: {} of {} tetrahedra visible, ordered in {:.0} ms",
-                    st.drawn, st.total, st.order_ms
-                );
-                f
-            })
+            boxforge_runtime::render::pt::render::render(gpu, d, vol, tf, o, shading, Normals::Vertex)
+                .map(|(f, st)| {
+                    eprintln!(
+                        "projected tetrahedra: {} of {} tetrahedra visible, ordered in {:.0} ms",
+                        st.drawn, st.total, st.order_ms
+                    );
+                    f
+                })
+                .map_err(text)
         }
-        How::Perm(q, peel) => {
-            boxforge_runtime::render::perm::render(gpu, d, vol, layout, tf, o, q, peel).map(|(f, c)| {
+        How::Perm(q, peel) => boxforge_runtime::render::perm::render(gpu, d, vol, layout, tf, o, q, peel)
+            .map(|(f, c)| {
                 if peel {
                     eprintln!("opaque-boundary peeling: {} candidate cells no ray reaches dropped", c.peeled);
                 }
@@ -84,7 +89,7 @@ pub fn frame(
                 );
                 f
             })
-        }
-        How::RayCast => boxforge_runtime::render::dvr::render(gpu, d, vol, layout, tf, o),
+            .map_err(|e| crate::request::perm_failure(&e)),
+        How::RayCast => boxforge_runtime::render::dvr::render(gpu, d, vol, layout, tf, o).map_err(text),
     }
 }

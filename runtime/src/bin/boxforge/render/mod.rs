@@ -5,15 +5,14 @@
 mod dvr;
 
 use crate::common::{parse_view, Failure, LayoutArg};
+use crate::request;
 use boxforge::derive::Derivation;
 use boxforge::emit::Layout;
 use boxforge::spec;
 use boxforge_runtime::gpu::Gpu;
 use boxforge_runtime::render::dvr::transfer::TransferFunction;
 use boxforge_runtime::render::iso::{self as render, HitMode, RenderOptions};
-use boxforge_runtime::render::perm;
 use boxforge_runtime::render::schemes::Scheme;
-use boxforge_runtime::request;
 use boxforge_runtime::scene::{self, Conversion};
 
 #[derive(clap::Args)]
@@ -164,14 +163,14 @@ pub fn run(a: RenderArgs) -> Result<(), Failure> {
     request::check_render_numbers(size, a.step, a.iso, az, el)?;
     request::check_output_file(&a.out, "--out")?;
     let dvr = request::check_render_mode(mode, a.tf.as_deref(), a.no_preintegration)?;
-    let perm = perm::check_request(cache, mode, a.qc, a.qc_grad)?;
+    let perm = request::check_cache(cache, mode, a.qc, a.qc_grad)?;
     if a.peel && perm.is_none() {
         return Err(Failure("--peel peels the PERM cache: add --cache perm (with --mode dvr)".into()));
     }
     let pt = request::check_renderer(a.renderer.name(), mode, cache, a.perspective)?;
     // An empty name: no --tf given, the default ramp once the data's range is known.
     let mut tf = match &dvr {
-        Some(name) if !name.is_empty() => Some(TransferFunction::load(name)?),
+        Some(name) if !name.is_empty() => Some(TransferFunction::load(name).map_err(|e| Failure(format!("--tf {e}")))?),
         _ => None,
     };
     let layout = Layout::from(a.layout);
@@ -212,6 +211,7 @@ pub fn run(a: RenderArgs) -> Result<(), Failure> {
         )));
     }
     let conversion = if a.resample { Conversion::Resample } else { Conversion::Subset };
+    request::check_ml_volume(&a.volume, &lat)?;
     let vol = scene::load(&a.volume, a.raw.as_deref(), &lat, conversion).map_err(|e| Failure(e.to_string()))?;
     let (lo, hi) = vol.data.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
     if dvr.as_deref() == Some("") {
@@ -268,10 +268,10 @@ pub fn run(a: RenderArgs) -> Result<(), Failure> {
                 frames: 1,
                 ..RenderOptions::default()
             };
-            render::render(&gpu, &d, &vol, layout, &opts)
+            render::render(&gpu, &d, &vol, layout, &opts).map_err(|e| e.to_string())
         }
     }
-    .map_err(|e| Failure(e.to_string()))?;
+    .map_err(|e| Failure(request::volume_over_limits(&vol, layout, &gpu.limits()).unwrap_or(e)))?;
     let out = &a.out;
     render::write_png(out, frame.width, frame.height, &frame.rgba)
         .map_err(|e| Failure(format!("cannot write {}: {e}", out.display())))?;

@@ -1,19 +1,23 @@
-//! Every request is checked here before it reaches wgpu or the allocator:
-//! numbers must be finite and in range, sizes must fit the adapter's limits,
-//! and each refusal is one line that names the value, the limit and the fix.
-//! Nothing here needs a device (the limits are passed in), so the CLI's
-//! property test runs it on random input.
+//! Every request of the CLI is checked here before it reaches wgpu or the
+//! allocator: numbers must be finite and in range, sizes must fit the
+//! adapter's limits, and each refusal is one line that names the flag, the
+//! value, the limit and the fix. Nothing here needs a device (the limits are
+//! passed in). The library's own checks ([`boxforge_runtime::limits`]) name
+//! no flags: [`volume_limit`] words them for the command line.
+
+use boxforge::emit::Layout;
+use boxforge_runtime::limits::{self, LimitError};
+use boxforge_runtime::render::perm::{
+    formula, Counts, PermError, Quant, B_DB, B_GB, B_SB, DEFAULT_QC, MAX_BYTES, MAX_ROW,
+};
+use boxforge_runtime::volume::LatticeVolume;
 
 /// Largest image edge `render` accepts (before the adapter's own limits).
 pub const MAX_IMAGE_EDGE: u32 = 16_384;
-/// Largest `N` of `ml:N` (about N^3 samples).
-pub const MAX_ML_N: u32 = 1024;
-/// Largest volume built on the host, in samples (1 GiB of f32).
-pub const MAX_SAMPLES: u64 = 1 << 28;
 /// Ray steps, in cells: below the minimum a frame would take hours.
 pub const STEP_RANGE: (f32, f32) = (0.01, 8.0);
 /// Most points `verify` evaluates (streamed in dispatches of
-/// [`crate::verify::POINTS_PER_DISPATCH`], so memory stays bounded).
+/// [`boxforge_runtime::verify::POINTS_PER_DISPATCH`], so memory stays bounded).
 pub const MAX_POINTS: usize = 1_000_000_000;
 
 /// Image edge, ray step, iso-value and view angles of `render`.
@@ -73,53 +77,6 @@ pub fn check_points(points: usize) -> Result<(), String> {
     }
     if points > MAX_POINTS {
         return Err(format!("--points {points}: at most {MAX_POINTS} points per run; run several seeds instead"));
-    }
-    Ok(())
-}
-
-/// `N` of `ml:N`, parsed and bounded.
-pub fn parse_ml_n(text: &str) -> Result<u32, String> {
-    let n: i64 = text
-        .trim()
-        .parse()
-        .map_err(|_| format!("ml:{text}: ml:N needs a whole number N (about N^3 samples), e.g. ml:41"))?;
-    if n < 2 || n > MAX_ML_N as i64 {
-        return Err(format!("ml:{text}: ml:N needs N between 2 and {MAX_ML_N} (about N^3 samples), e.g. ml:41"));
-    }
-    Ok(n as u32)
-}
-
-/// Samples of a volume with these dimensions, refused past [`MAX_SAMPLES`]
-/// (checked arithmetic, so no dimension overflows the count).
-pub fn check_samples(dims: [usize; 3], what: &str) -> Result<u64, String> {
-    let n = dims.iter().try_fold(1u64, |acc, &d| acc.checked_mul(d as u64));
-    match n {
-        Some(n) if n <= MAX_SAMPLES => Ok(n),
-        _ => Err(format!(
-            "{what}: {}x{}x{} samples is over the cap of {MAX_SAMPLES} samples (1 GiB of f32); use a smaller ml:N or --resample a smaller volume",
-            dims[0], dims[1], dims[2]
-        )),
-    }
-}
-
-/// A volume against the adapter: embedded textures by their edge, packed
-/// buffers by their bytes.
-pub fn check_volume_limits(dims: [usize; 3], bytes: u64, embedded: bool, limits: &wgpu::Limits) -> Result<(), String> {
-    if embedded {
-        let max = limits.max_texture_dimension_3d as usize;
-        if dims.iter().any(|&d| d > max) {
-            return Err(format!(
-                "the volume is {}x{}x{} samples, over this adapter's 3D texture limit of {max} per edge; use --layout packed, --resample or a smaller ml:N",
-                dims[0], dims[1], dims[2]
-            ));
-        }
-    } else {
-        let max = limits.max_storage_buffer_binding_size.min(limits.max_buffer_size);
-        if bytes > max {
-            return Err(format!(
-                "the packed volume needs {bytes} bytes, over this adapter's storage buffer limit of {max} bytes; use --resample or a smaller ml:N"
-            ));
-        }
     }
     Ok(())
 }
@@ -199,7 +156,7 @@ pub fn check_renderer(renderer: &str, mode: &str, cache: &str, perspective: bool
 
 /// A warning (not an error) when the transfer function is transparent over
 /// all of the data's values [lo, hi].
-pub fn tf_warning(table: &crate::render::dvr::transfer::Tf1d, lo: f32, hi: f32) -> Option<String> {
+pub fn tf_warning(table: &boxforge_runtime::render::dvr::transfer::Tf1d, lo: f32, hi: f32) -> Option<String> {
     table.transparent(lo as f64, hi as f64).then(|| {
         format!(
             "warning: the transfer function is transparent over the volume's values [{lo}, {hi}]: the image will be empty"
@@ -234,6 +191,127 @@ pub fn check_scheme(name: &str, mode: &str, cache: &str, pt: bool, layout: &str)
     Ok(())
 }
 
+/// A refusal of the library's [`limits`], worded with the flags that fix it.
+pub fn volume_limit(e: &LimitError) -> String {
+    match e {
+        LimitError::Samples { what, dims } => format!(
+            "{what}: {}x{}x{} samples is over the cap of {} samples (1 GiB of f32); use a smaller ml:N or --resample a smaller volume",
+            dims[0],
+            dims[1],
+            dims[2],
+            limits::MAX_SAMPLES
+        ),
+        LimitError::TextureEdge { dims, max } => format!(
+            "the volume is {}x{}x{} samples, over this adapter's 3D texture limit of {max} per edge; use --layout packed, --resample or a smaller ml:N",
+            dims[0], dims[1], dims[2]
+        ),
+        LimitError::BufferBytes { bytes, max } => format!(
+            "the packed volume needs {bytes} bytes, over this adapter's storage buffer limit of {max} bytes; use --resample or a smaller ml:N"
+        ),
+        LimitError::MlNotWhole { .. } | LimitError::MlRange { .. } => e.to_string(),
+    }
+}
+
+/// `--volume ml:N`: N and the host sample count, checked as
+/// [`boxforge_runtime::scene::load`] does, with the flags named.
+pub fn check_ml_volume(spec: &str, lattice: &boxforge::spec::lattice::Lattice) -> Result<(), String> {
+    let Some(n) = spec.strip_prefix("ml:") else { return Ok(()) };
+    let n = limits::parse_ml_n(n).map_err(|e| volume_limit(&e))?;
+    let e = boxforge_runtime::scene::matched_edge(lattice, (n as f64).powi(3));
+    limits::check_samples([e, e, e], spec).map_err(|e| volume_limit(&e))?;
+    Ok(())
+}
+
+/// The refusal of [`boxforge_runtime::volume::DeviceVolume::new`] (a GPU
+/// error) for a volume over the adapter's limits, with the flags named.
+pub fn device_limit(e: &LimitError) -> String {
+    format!("GPU error: {}", volume_limit(e))
+}
+
+/// Why uploading `vol` in `layout` fails on an adapter with `limits`, if
+/// it does: the text the CLI prints.
+pub fn volume_over_limits(vol: &LatticeVolume, layout: Layout, limits: &wgpu::Limits) -> Option<String> {
+    let (bytes, embedded) = match layout {
+        Layout::Embedded => (vol.data.len() as u64 * 4, true),
+        Layout::Packed => (vol.packed_bytes() as u64, false),
+    };
+    limits::check_volume_limits(vol.dims, bytes, embedded, limits).err().map(|e| device_limit(&e))
+}
+
+/// The `--cache`, `--qc` and `--qc-grad` options, checked before any GPU
+/// work: `None` for `--cache none`. The memory check here is the cache of
+/// a single candidate cell (a lower bound); [`boxforge_runtime::render::perm::PermCache::build`] checks the
+/// exact size once the candidates are known.
+pub fn check_cache(cache: &str, mode: &str, qc: Option<u32>, qc_grad: Option<u32>) -> Result<Option<Quant>, String> {
+    match cache {
+        "none" => {
+            return match (qc, qc_grad) {
+                (None, None) => Ok(None),
+                _ => Err("--qc and --qc-grad size the PERM cache: add --cache perm (with --mode dvr)".into()),
+            }
+        }
+        "perm" => {}
+        other => return Err(format!("--cache {other}: unknown cache; use --cache none or --cache perm")),
+    }
+    if mode != "dvr" {
+        return Err(format!(
+            "--cache perm precomputes the values direct volume rendering samples; --mode {mode} has no such cache: add --mode dvr --tf ..., or drop --cache perm"
+        ));
+    }
+    let n = qc.unwrap_or(DEFAULT_QC);
+    let quant = Quant { density: n, gradient: qc_grad.unwrap_or(n) };
+    for (flag, v) in [("--qc", quant.density), ("--qc-grad", quant.gradient)] {
+        if v == 0 {
+            return Err(format!(
+                "{flag} 0: a cell needs at least one quantized position per axis; use 1 or more (the paper uses 5, and 3 for gradients)"
+            ));
+        }
+    }
+    let one = formula(&Counts { cells: 0, rows: 0, candidates: 1, quant }).total();
+    if one > MAX_BYTES {
+        let largest = (1..)
+            .take_while(|&k| {
+                formula(&Counts { cells: 0, rows: 0, candidates: 1, quant: Quant { density: k, gradient: k } }).total()
+                    <= MAX_BYTES
+            })
+            .last()
+            .unwrap_or(1);
+        return Err(format!(
+            "--qc {} --qc-grad {}: one candidate cell alone needs {one} bytes of PERM cache ({}^3 x {B_DB} + {}^3 x {}), over the limit of {MAX_BYTES} bytes; use --qc {largest} or less",
+            quant.density,
+            quant.gradient,
+            quant.density,
+            quant.gradient,
+            3 * B_GB + B_SB
+        ));
+    }
+    Ok(Some(quant))
+}
+
+/// A PERM build's refusal, worded with the flags that size the cache (a
+/// GPU error, as the CLI has always printed it).
+pub fn perm_failure(e: &PermError) -> String {
+    match e {
+        PermError::RowTooLong { cells } => format!(
+            "GPU error: --cache perm: the volume is {cells} cells along x, over the {MAX_ROW} a 15-bit row index addresses"
+        ),
+        PermError::TooLarge { counts, need, limit } => format!(
+            "GPU error: --qc {} --qc-grad {}: the PERM cache of {} candidate cells needs {}, over the limit of {limit} bytes; use a smaller --qc or --qc-grad",
+            counts.quant.density,
+            counts.quant.gradient,
+            counts.candidates,
+            need.describe()
+        ),
+        PermError::IndexVolume { cells, bytes, binding } => format!(
+            "GPU error: --cache perm: the index volume of {cells} cells needs {bytes} bytes, over this device's storage-binding limit of {binding} bytes; downsample the volume"
+        ),
+        PermError::Texture { label, words, max } => format!(
+            "GPU error: --cache perm: the {label} need {words} words, more than a 3D texture of {max}^3 texels holds; use a smaller --qc or --qc-grad"
+        ),
+        PermError::Gpu(e) => e.to_string(),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -255,12 +333,6 @@ mod tests {
             assert!(e.starts_with(flag), "{e}");
         }
         assert!(check_points(0).is_err() && check_points(20_000_000).is_ok());
-        assert_eq!(parse_ml_n("41"), Ok(41));
-        for bad in ["-3", "0", "1", "100000", "x", "4.5", ""] {
-            assert!(parse_ml_n(bad).is_err(), "{bad}");
-        }
-        assert!(check_samples([usize::MAX, 2, 2], "v").is_err(), "no overflow");
-        assert!(check_samples([64, 64, 64], "v").is_ok());
         assert!(iso_warning(2.0, 0.0, 1.0).is_some() && iso_warning(0.5, 0.0, 1.0).is_none());
     }
 
@@ -272,7 +344,7 @@ mod tests {
         assert_eq!(check_render_mode("dvr", None, false), Ok(Some(String::new())));
         assert!(check_render_mode("iso", Some("x.json"), false).unwrap_err().starts_with("--tf x.json"));
         assert!(check_render_mode("iso", None, true).unwrap_err().starts_with("--no-preintegration"));
-        let t = crate::render::dvr::transfer::TransferFunction::preset("mni-tissue").table();
+        let t = boxforge_runtime::render::dvr::transfer::TransferFunction::preset("mni-tissue").table();
         assert!(tf_warning(&t, 0.0, 20.0).is_some() && tf_warning(&t, 0.0, 255.0).is_none());
     }
 
@@ -282,8 +354,32 @@ mod tests {
         assert!(check_image_limits(256, &limits).is_ok());
         assert!(check_image_limits(16_384, &limits).is_err());
         let edge = limits.max_texture_dimension_3d as usize + 1;
-        assert!(check_volume_limits([edge, 4, 4], 0, true, &limits).is_err());
-        assert!(check_volume_limits([64, 64, 64], 64 * 64 * 64 * 4, true, &limits).is_ok());
-        assert!(check_volume_limits([8, 8, 8], u64::MAX, false, &limits).is_err());
+        let e = device_limit(&LimitError::TextureEdge { dims: [edge, 4, 4], max: edge - 1 });
+        assert!(e.contains("use --layout packed, --resample or a smaller ml:N"), "{e}");
+    }
+
+    #[test]
+    fn bad_cache_options_are_refused_with_the_flag_named() {
+        assert_eq!(check_cache("none", "dvr", None, None), Ok(None));
+        assert_eq!(check_cache("perm", "dvr", None, None), Ok(Some(Quant { density: 5, gradient: 5 })));
+        assert_eq!(check_cache("perm", "dvr", Some(5), Some(3)), Ok(Some(Quant { density: 5, gradient: 3 })));
+        for (cache, mode, qc, qg, fragment) in [
+            ("perm", "dvr", Some(0), None, "--qc 0"),
+            ("perm", "dvr", Some(4), Some(0), "--qc-grad 0"),
+            ("perm", "dvr", Some(1000), None, "over the limit of 2147483648 bytes"),
+            ("perm", "iso", None, None, "--mode iso"),
+            ("lru", "dvr", None, None, "--cache lru"),
+            ("none", "dvr", Some(5), None, "add --cache perm"),
+        ] {
+            let e = check_cache(cache, mode, qc, qg).unwrap_err();
+            assert!(e.contains(fragment) && !e.contains('\n'), "{e}");
+        }
+        // The refusal names the bytes: 1000^3 x 2 + 1000^3 x 4.
+        assert!(check_cache("perm", "dvr", Some(1000), None).unwrap_err().contains("6000000000 bytes"));
+        // The largest accepted N is the one the message suggests.
+        let e = check_cache("perm", "dvr", Some(1000), None).unwrap_err();
+        let largest: u32 = e.rsplit("--qc ").next().unwrap().split(' ').next().unwrap().parse().unwrap();
+        assert!(check_cache("perm", "dvr", Some(largest), None).is_ok());
+        assert!(check_cache("perm", "dvr", Some(largest + 1), None).is_err());
     }
 }
