@@ -12,7 +12,7 @@ pub enum VolumeError {
     Io { path: PathBuf, source: std::io::Error },
     /// The NIfTI reader rejected the file (bad magic, header or truncated data).
     #[error(
-        "{path} is not a readable NIfTI-1 file: {message} (give a .nii or .nii.gz file, or a raw file with --raw NX,NY,NZ,TYPE)"
+        "{path} is not a readable NIfTI-1 file: {message} (give a .nii or .nii.gz file, or read it as raw samples with its size and sample type)"
     )]
     Nifti { path: PathBuf, message: String },
     /// The NIfTI file is not a single 3-D volume.

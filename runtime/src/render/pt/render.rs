@@ -149,13 +149,13 @@ pub fn render(
 ) -> Result<(Frame, PtStats), GpuError> {
     let grid = Grid::of(&vol.lattice).ok_or_else(|| {
         GpuError::Runtime(format!(
-            "projected tetrahedra need BCC or CC data, not the {} lattice: use the ray caster (--renderer raycast)",
+            "projected tetrahedra need BCC or CC data, not the {} lattice: use the ray caster",
             vol.lattice.name
         ))
     })?;
     if o.perspective {
         return Err(GpuError::Runtime(
-            "projected tetrahedra here are orthographic (the implicit back-to-front traversal is a visibility order only for parallel projection): drop --perspective or use --renderer raycast".into(),
+            "projected tetrahedra here are orthographic (the implicit back-to-front traversal is a visibility order only for parallel projection): render a parallel view or use the ray caster".into(),
         ));
     }
     let started = Instant::now();
@@ -264,7 +264,7 @@ pub fn render(
     for (what, bytes) in [("samples", data.len() * 4), ("visible tetrahedra", ids.len() * 4)] {
         if bytes as u64 > limit {
             return Err(GpuError::Runtime(format!(
-                "projected tetrahedra: the {what} take {bytes} bytes, over this adapter's storage-binding limit of {limit}: use a smaller volume (e.g. --resample from a downsampled file) or the ray caster"
+                "projected tetrahedra: the {what} take {bytes} bytes, over this adapter's storage-binding limit of {limit}: use a smaller volume (e.g. resampled from a downsampled file) or the ray caster"
             )));
         }
     }
