@@ -273,8 +273,19 @@ pub fn write_site(
         files.push((entry["file"].as_str().expect("a path").to_string(), data));
         tfs.push(entry);
     }
+    // Every viewer shader's bindings, read from the shader as the reports
+    // read the modules' (the page binds group 1 by these numbers).
+    let mut bindings = serde_json::Map::new();
+    for (path, data) in files.iter().filter(|(p, _)| p.starts_with("shaders/")) {
+        let source = std::str::from_utf8(data).expect("generated WGSL is UTF-8");
+        let table = boxforge::validate::bindings_of_wgsl(source)
+            .map_err(|message| crate::gpu::GpuError::Shader { label: path.clone(), message })?;
+        bindings.insert(path.clone(), serde_json::to_value(table)?);
+    }
     let catalog = json!({
         "generator": format!("{WEB_COMMAND} {}", env!("CARGO_PKG_VERSION")),
+        "schema_version": boxforge::build::report::REPORT_SCHEMA_VERSION,
+        "bindings": bindings,
         "filters": entries,
         "modules": modules,
         "volumes": volumes,
@@ -365,6 +376,34 @@ mod tests {
             let path = f["shaders"][layout]["dvr"].as_str().unwrap();
             assert!(std::fs::read_to_string(dir.join(path)).unwrap().contains("fn bcc_linear_dvr_main"), "{path}");
         }
+        // The bindings the page must provide, per shader, read from the shader:
+        // group 1 of the step walk has no fine grid (binding 4), the exact walk has.
+        assert_eq!(catalog["schema_version"], boxforge::build::report::REPORT_SCHEMA_VERSION);
+        let group1 = |path: &str| -> Vec<(u64, String)> {
+            let table = catalog["bindings"][path].as_array().unwrap_or_else(|| panic!("no bindings for {path}"));
+            table
+                .iter()
+                .filter(|b| b["group"] == 1)
+                .map(|b| (b["binding"].as_u64().unwrap(), b["kind"].as_str().unwrap().to_string()))
+                .collect()
+        };
+        let kinds = |k: &[&str]| -> Vec<(u64, String)> {
+            k.iter().enumerate().map(|(i, k)| (i as u64, k.to_string())).collect()
+        };
+        let step =
+            kinds(&["uniform buffer", "storage buffer read_write", "storage buffer read", "storage buffer read_write"]);
+        assert_eq!(group1(f["shaders"]["embedded"]["step"].as_str().unwrap()), step);
+        let mut exact = step.clone();
+        exact.push((4, "storage buffer read".into()));
+        assert_eq!(group1(f["shaders"]["embedded"]["exact"].as_str().unwrap()), exact);
+        let dvr = kinds(&[
+            "uniform buffer",
+            "storage buffer read_write",
+            "storage buffer read",
+            "storage buffer read",
+            "storage buffer read",
+        ]);
+        assert_eq!(group1(f["shaders"]["packed"]["dvr"].as_str().unwrap()), dvr);
         // Each preset's tables: the 1D table then the pre-integration table, as the native renderer builds them.
         for t in catalog["transfer_functions"].as_array().unwrap() {
             let name = t["name"].as_str().unwrap();
