@@ -5,6 +5,7 @@
 //! same bytes the PNG of `boxforge render` holds.
 
 use crate::gpu::{Gpu, GpuError};
+use crate::render::RenderError;
 use std::collections::HashMap;
 
 const SHADER: &str = r#"
@@ -141,4 +142,63 @@ impl Presenter {
         pass.set_bind_group(0, bind, &[]);
         pass.draw(0..3, 0..1);
     }
+}
+
+/// A ray caster's image for one frame size: the buffer its compute pass
+/// writes (one RGBA8 word per pixel), the caster's group-1 bind group over
+/// it, and the present bind group for the last target format. Every
+/// per-frame renderer keeps one and rebuilds it only when the size changes.
+pub(crate) struct FrameImage {
+    pub width: u32,
+    pub height: u32,
+    pub image: wgpu::Buffer,
+    pub caster: wgpu::BindGroup,
+    present: Option<(wgpu::TextureFormat, wgpu::BindGroup)>,
+}
+
+impl FrameImage {
+    pub(crate) fn new(width: u32, height: u32, image: wgpu::Buffer, caster: wgpu::BindGroup) -> FrameImage {
+        FrameImage { width, height, image, caster, present: None }
+    }
+
+    /// Records the ray caster (`pipeline`, the samples at group 0, this
+    /// image's caster group at 1; 8x8 workgroups over the image) and the
+    /// draw of the image into `view` of `format`.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn encode(
+        &mut self,
+        gpu: &Gpu,
+        presenter: &mut Presenter,
+        encoder: &mut wgpu::CommandEncoder,
+        (label, pipeline, samples): (&str, &wgpu::ComputePipeline, &wgpu::BindGroup),
+        view: &wgpu::TextureView,
+        format: wgpu::TextureFormat,
+    ) -> Result<(), GpuError> {
+        if self.present.as_ref().map(|(f, _)| *f) != Some(format) {
+            presenter.prepare(gpu, format)?;
+            self.present = Some((format, presenter.bind(gpu, &self.image, self.width, format)));
+        }
+        {
+            let mut pass =
+                encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(label), timestamp_writes: None });
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, samples, &[]);
+            pass.set_bind_group(1, &self.caster, &[]);
+            pass.dispatch_workgroups(self.width.div_ceil(8), self.height.div_ceil(8), 1);
+        }
+        let present = &self.present.as_ref().expect("prepared above").1;
+        presenter.encode(encoder, view, format, present);
+        Ok(())
+    }
+}
+
+/// A zeroed image buffer (one word per pixel) for a `width` x `height`
+/// frame, refused past the device's storage-binding limit.
+pub(crate) fn image_buffer(gpu: &Gpu, label: &str, width: u32, height: u32) -> Result<wgpu::Buffer, RenderError> {
+    let limit = gpu.limits().max_storage_buffer_binding_size;
+    let bytes = width as u64 * height as u64 * 4;
+    if bytes > limit {
+        return Err(RenderError::TargetTooLarge { width, height, limit });
+    }
+    Ok(gpu.storage_buffer(label, &vec![0u8; bytes as usize], true))
 }

@@ -13,7 +13,7 @@ use crate::gpu::binding::{entries_for, layout_entries_from};
 use crate::gpu::{Gpu, GpuError};
 use crate::render::blocks::block_bounds;
 use crate::render::camera::{Camera, Target};
-use crate::render::present::Presenter;
+use crate::render::present::{image_buffer, FrameImage, Presenter};
 use crate::render::RenderError;
 use crate::volume::DeviceVolume;
 use boxforge::derive::Derivation;
@@ -40,14 +40,6 @@ impl Default for DvrLook {
     }
 }
 
-struct Sized {
-    width: u32,
-    height: u32,
-    caster: wgpu::BindGroup,
-    image: wgpu::Buffer,
-    present: Option<(wgpu::TextureFormat, wgpu::BindGroup)>,
-}
-
 /// A volume rendering of one volume with one filter and transfer function.
 pub struct DvrRenderer {
     gpu: Gpu,
@@ -68,7 +60,7 @@ pub struct DvrRenderer {
     tf: wgpu::Buffer,
     preint: wgpu::Buffer,
     presenter: Presenter,
-    sized: Option<Sized>,
+    frame: Option<FrameImage>,
 }
 
 impl DvrRenderer {
@@ -129,7 +121,7 @@ impl DvrRenderer {
             preint: gpu.storage_buffer("dvr preint", bytemuck::cast_slice(&pi_entries), false),
             table,
             presenter: Presenter::new(gpu)?,
-            sized: None,
+            frame: None,
         })
     }
 
@@ -168,44 +160,30 @@ impl DvrRenderer {
             self.gpu.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
             self.last_params = Some(params);
         }
-        let sized = self.sized.as_mut().expect("allocated above");
-        if sized.present.as_ref().map(|(f, _)| *f) != Some(target.format) {
-            self.presenter.prepare(&self.gpu, target.format)?;
-            sized.present =
-                Some((target.format, self.presenter.bind(&self.gpu, &sized.image, target.width, target.format)));
-        }
-        {
-            let mut pass =
-                encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("dvr"), timestamp_writes: None });
-            pass.set_pipeline(&self.pipeline);
-            pass.set_bind_group(0, &self.samples, &[]);
-            pass.set_bind_group(1, &sized.caster, &[]);
-            pass.dispatch_workgroups(target.width.div_ceil(8), target.height.div_ceil(8), 1);
-        }
-        let present = &sized.present.as_ref().expect("prepared above").1;
-        self.presenter.encode(encoder, target.view, target.format, present);
+        let frame = self.frame.as_mut().expect("allocated above");
+        frame.encode(
+            &self.gpu,
+            &mut self.presenter,
+            encoder,
+            ("dvr", &self.pipeline, &self.samples),
+            target.view,
+            target.format,
+        )?;
         Ok(())
     }
 
     fn ensure_image(&mut self, width: u32, height: u32) -> Result<(), RenderError> {
-        if let Some(s) = &self.sized {
-            if (s.width, s.height) == (width, height) {
-                return Ok(());
-            }
+        if self.frame.as_ref().is_some_and(|f| (f.width, f.height) == (width, height)) {
+            return Ok(());
         }
-        let limit = self.gpu.limits().max_storage_buffer_binding_size;
-        let bytes = width as u64 * height as u64 * 4;
-        if bytes > limit {
-            return Err(RenderError::TargetTooLarge { width, height, limit });
-        }
-        let image = self.gpu.storage_buffer("dvr image", &vec![0u8; bytes as usize], true);
+        let image = image_buffer(&self.gpu, "dvr image", width, height)?;
         let resources = [(0, &self.params), (1, &image), (2, &self.flags), (3, &self.tf), (4, &self.preint)];
         let caster = self.gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("dvr"),
             layout: &self.caster_layout,
             entries: &entries_for(&self.bindings, 1, &resources),
         });
-        self.sized = Some(Sized { width, height, caster, image, present: None });
+        self.frame = Some(FrameImage::new(width, height, image, caster));
         Ok(())
     }
 }

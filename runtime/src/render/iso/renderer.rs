@@ -11,7 +11,7 @@ use crate::gpu::timing::timed_banded_frames;
 use crate::gpu::{Gpu, GpuError};
 use crate::render::blocks::{self, block_bounds};
 use crate::render::camera::{Camera, Target};
-use crate::render::present::Presenter;
+use crate::render::present::{image_buffer, FrameImage, Presenter};
 use crate::render::RenderError;
 use crate::volume::DeviceVolume;
 use boxforge::derive::Derivation;
@@ -37,17 +37,6 @@ impl Default for IsoOptions {
     }
 }
 
-/// The per-size part: the image the ray caster writes and its bind groups.
-struct Sized {
-    width: u32,
-    height: u32,
-    caster: wgpu::BindGroup,
-    /// The present bind group for the last target format.
-    present: Option<(wgpu::TextureFormat, wgpu::BindGroup)>,
-    image: wgpu::Buffer,
-    depth: wgpu::Buffer,
-}
-
 /// An isosurface of one volume with one filter, rendered per frame into a
 /// host's target (see the module documentation).
 pub struct IsoRenderer {
@@ -67,7 +56,8 @@ pub struct IsoRenderer {
     fine: Option<wgpu::Buffer>,
     empty_blocks: f64,
     presenter: Presenter,
-    sized: Option<Sized>,
+    /// The image of the current size, and the hit depths beside it.
+    frame: Option<(FrameImage, wgpu::Buffer)>,
 }
 
 impl IsoRenderer {
@@ -129,7 +119,7 @@ impl IsoRenderer {
             fine,
             empty_blocks,
             presenter: Presenter::new(gpu)?,
-            sized: None,
+            frame: None,
         })
     }
 
@@ -155,7 +145,7 @@ impl IsoRenderer {
         if target.width == 0 || target.height == 0 {
             return Err(RenderError::EmptyTarget);
         }
-        self.resize(target)?;
+        self.ensure_image(target.width, target.height)?;
         let o = RenderOptions {
             iso: self.options.iso,
             width: target.width,
@@ -174,58 +164,38 @@ impl IsoRenderer {
             self.gpu.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
             self.last_params = Some(params);
         }
-        let sized = self.sized.as_ref().expect("resized above");
-        let present = &sized.present.as_ref().expect("prepared above").1;
-        {
-            let mut pass = encoder
-                .begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("raycast"), timestamp_writes: None });
-            pass.set_pipeline(&self.pipeline);
-            pass.set_bind_group(0, &self.samples, &[]);
-            pass.set_bind_group(1, &sized.caster, &[]);
-            pass.dispatch_workgroups(target.width.div_ceil(8), target.height.div_ceil(8), 1);
-        }
-        self.presenter.encode(encoder, target.view, target.format, present);
+        let (frame, _) = self.frame.as_mut().expect("allocated above");
+        frame.encode(
+            &self.gpu,
+            &mut self.presenter,
+            encoder,
+            ("raycast", &self.pipeline, &self.samples),
+            target.view,
+            target.format,
+        )?;
         Ok(())
     }
 
-    /// Copies the last frame's hit depths (ray parameter t per pixel, -1 for
-    /// a miss) into `encoder`-recorded reads: the buffer a host may bind.
+    /// The buffer of the last frame's hit depths (ray parameter t per pixel,
+    /// -1 for a miss), which a host may bind or copy.
     pub fn depth_buffer(&self) -> Option<&wgpu::Buffer> {
-        self.sized.as_ref().map(|s| &s.depth)
+        self.frame.as_ref().map(|(_, depth)| depth)
     }
 
     /// The last frame's image buffer (one RGBA8 word per pixel, rows from the top).
     pub fn image_buffer(&self) -> Option<&wgpu::Buffer> {
-        self.sized.as_ref().map(|s| &s.image)
-    }
-
-    fn resize(&mut self, target: &Target<'_>) -> Result<(), RenderError> {
-        self.ensure_image(target.width, target.height)?;
-        let sized = self.sized.as_mut().expect("allocated above");
-        if sized.present.as_ref().map(|(format, _)| *format) != Some(target.format) {
-            self.presenter.prepare(&self.gpu, target.format)?;
-            let bind = self.presenter.bind(&self.gpu, &sized.image, target.width, target.format);
-            sized.present = Some((target.format, bind));
-        }
-        Ok(())
+        self.frame.as_ref().map(|(f, _)| &f.image)
     }
 
     /// The image and depth buffers and the caster's bind group for a
     /// `width` x `height` frame (kept while the size stays).
     fn ensure_image(&mut self, width: u32, height: u32) -> Result<(), RenderError> {
-        if let Some(s) = &self.sized {
-            if (s.width, s.height) == (width, height) {
-                return Ok(());
-            }
+        if self.frame.as_ref().is_some_and(|(f, _)| (f.width, f.height) == (width, height)) {
+            return Ok(());
         }
         let gpu = &self.gpu;
-        let limit = gpu.limits().max_storage_buffer_binding_size;
-        let bytes = width as u64 * height as u64 * 4;
-        if bytes > limit {
-            return Err(RenderError::TargetTooLarge { width, height, limit });
-        }
-        let image = gpu.storage_buffer("image", &vec![0u8; bytes as usize], true);
-        let depth = gpu.storage_buffer("depth", &vec![0u8; bytes as usize], true);
+        let image = image_buffer(gpu, "image", width, height)?;
+        let depth = image_buffer(gpu, "depth", width, height)?;
         let resources = [
             (0, &self.params),
             (1, &image),
@@ -238,7 +208,7 @@ impl IsoRenderer {
             layout: &self.caster_layout,
             entries: &entries_for(&self.bindings, 1, &resources),
         });
-        self.sized = Some(Sized { width, height, present: None, caster, image, depth });
+        self.frame = Some((FrameImage::new(width, height, image, caster), depth));
         Ok(())
     }
 
@@ -248,11 +218,11 @@ impl IsoRenderer {
     pub(crate) fn timed_frames(&mut self, o: &RenderOptions) -> Result<(Frame, Vec<f32>), RenderError> {
         self.ensure_image(o.width, o.height)?;
         let params = ray_params_for(self.radius, self.dims, o);
-        let sized = self.sized.as_ref().expect("allocated above");
+        let (frame, depth) = self.frame.as_ref().expect("allocated above");
         let times = timed_banded_frames(
             &self.gpu,
             &self.pipeline,
-            [&self.samples, &sized.caster],
+            [&self.samples, &frame.caster],
             (&self.params, params, |p: &mut RayParams, y0| p.image[3] = y0 as i32),
             (o.width, o.height, if o.progress { 32 } else { o.height }),
             ("raycast", "rendering rows", o.progress),
@@ -260,9 +230,9 @@ impl IsoRenderer {
         )?;
         // The bands rewrote the parameters: the next encode writes its own.
         self.last_params = None;
-        let words: Vec<u32> = bytemuck::cast_slice(&self.gpu.read_buffer(&sized.image)?).to_vec();
+        let words: Vec<u32> = bytemuck::cast_slice(&self.gpu.read_buffer(&frame.image)?).to_vec();
         let rgba = words.iter().flat_map(|w| w.to_le_bytes()).collect();
-        let depth: Vec<f32> = bytemuck::cast_slice(&self.gpu.read_buffer(&sized.depth)?).to_vec();
+        let depth: Vec<f32> = bytemuck::cast_slice(&self.gpu.read_buffer(depth)?).to_vec();
         let ms_per_frame = times[times.len() / 2];
         Ok((Frame { width: o.width, height: o.height, rgba, ms_per_frame, empty_blocks: self.empty_blocks }, depth))
     }
