@@ -104,31 +104,7 @@ impl Derivation {
             .max_by(|a, b| a.1.total_cmp(&b.1))
             .expect("every cube class has at least one cell")
             .0;
-        let map = &self.maps[cell];
-        let r = &self.references[map.reference];
-        let y: Vec<f64> = (0..s)
-            .map(|i| {
-                map.rotation[i].iter().zip(&xr).map(|(a, b)| *a as f64 * b).sum::<f64>() + map.translation[i] as f64
-            })
-            .collect();
-        let u: Vec<f64> = (0..s).map(|i| y[i] - t.offset[i] - r.corner[i] as f64).collect();
-        let tab = self.f64_reference(map.reference);
-        // Sum the data-weighted coefficients first, then evaluate one polynomial.
-        let mut combined = vec![0.0; tab.exps.len()];
-        for (k, off) in r.stencil.iter().enumerate() {
-            let j = add_i(&l, &map.inverse_point(&add_i(&r.corner, off)));
-            let c = data(&j);
-            if c == 0.0 {
-                continue;
-            }
-            for (acc, coef) in combined.iter_mut().zip(&tab.coeffs[k]) {
-                *acc += c * coef;
-            }
-        }
-        let (value, grad_u) = eval_poly_f64(&tab.exps, &combined, &u);
-        // d/dx = R^T d/dy
-        let grad: Vec<f64> = (0..s).map(|i| (0..s).map(|k| map.rotation[k][i] as f64 * grad_u[k]).sum()).collect();
-        (value, grad)
+        self.eval_f64_in_cell(cell, &l, &xr, data)
     }
 }
 
