@@ -18,6 +18,9 @@ pub struct Reference {
 }
 
 pub const KIM_LEE_BCC7: &str = include_str!("../references/kim_lee_bcc7.wgsl");
+/// Kim 2013's fcc6 (Figure 5's branch-free locate and 19 fetches, BB form,
+/// de Casteljau); the BB tables' provenance is in the file's header.
+pub const KIM_FCC6: &str = include_str!("../references/kim_fcc6.wgsl");
 pub const SEPARABLE_TRICUBIC: &str = include_str!("../references/separable_tricubic.wgsl");
 pub const SIGG_HADWIGER_TRICUBIC: &str = include_str!("../references/sigg_hadwiger_tricubic.wgsl");
 /// Mattausch et al.'s bilinear and bilinear-plus-spatial BCC schemes, on the
@@ -43,6 +46,13 @@ pub fn builtin() -> Vec<Reference> {
             "kim_lee_bcc7",
             "M. Kim & Y. Lee 2012 / M. Kim 2013: branch-free GLSL (Fig. 7) + simplified symbolic formula",
             KIM_LEE_BCC7,
+        ),
+        r(
+            "Kim fcc6",
+            "fcc6",
+            "kim_fcc6",
+            "M. Kim 2013: branch-free GLSL (Fig. 5, 19 fetches) + BB form and de Casteljau",
+            KIM_FCC6,
         ),
         r(
             "separable tricubic",

@@ -14,7 +14,7 @@ fn generated_module(filter: &str) -> String {
 #[test]
 fn references_validate_with_naga_and_count_their_work() {
     let refs = references::builtin();
-    assert_eq!(refs.len(), 3);
+    assert_eq!(refs.len(), 4);
     for r in &refs {
         let src = format!("{}\n{}", generated_module(&r.like), r.source);
         let report = boxforge::validate::validate_wgsl(&src, &r.name);
@@ -24,6 +24,7 @@ fn references_validate_with_naga_and_count_their_work() {
         let fetches = references::fetches(&src, &r.source, &r.entry).unwrap();
         let want = match r.entry.as_str() {
             "kim_lee_bcc7" => 30,
+            "kim_fcc6" => 19,
             "separable_tricubic" => 64,
             "sigg_hadwiger_tricubic" => 8,
             e => panic!("unexpected reference {e}"),
@@ -73,5 +74,13 @@ fn references_agree_with_the_generated_eval_on_the_device() {
         ..sep.clone()
     };
     let row = bench::compare_reference(gpu, &shifted, 3000, 2).unwrap();
+    assert!(!row.agrees, "{row:?}");
+    // Kim's fcc6 with the corner tetrahedron's table everywhere (the type
+    // blend dropped) is wrong in the central tetrahedra, and caught.
+    let fcc = references::builtin().into_iter().find(|r| r.entry == "kim_fcc6").unwrap();
+    let from = "let tet_type = 1.0 - (";
+    assert!(fcc.source.contains(from));
+    let corner_only = references::Reference { source: fcc.source.replace(from, "let tet_type = 0.0 * ("), ..fcc.clone() };
+    let row = bench::compare_reference(gpu, &corner_only, 3000, 2).unwrap();
     assert!(!row.agrees, "{row:?}");
 }
