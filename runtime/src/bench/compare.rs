@@ -14,6 +14,24 @@ use boxforge::emit::{emit, EmitOptions, FetchMode, Layout};
 /// max |generated - reference| below this fraction of the data range.
 pub const REFERENCE_TOLERANCE: f64 = 1e-5;
 
+/// Evaluations per invocation in the ray-caster kernel shape.
+pub const RAY_STEPS: u32 = 16;
+
+/// Where the two kernel shapes' ratios may differ before the report says so.
+pub const SHAPE_DISAGREEMENT: f64 = 0.10;
+
+/// A function `bx_ray_<f>(p)` that evaluates `f` at [`RAY_STEPS`] points a
+/// quarter cell apart along a fixed unit direction from `p` and returns their
+/// sum: the shape of a ray caster's inner loop (several evaluations per
+/// invocation, consecutive points close together so their loads share cache
+/// lines, one write), where one evaluation per invocation measures mostly
+/// launch and write costs on some adapters.
+pub fn ray_shape(f: &str) -> String {
+    format!(
+        "fn bx_ray_{f}(p: vec3<f32>) -> f32 {{\n    var acc = 0.0;\n    for (var k = 0u; k < {RAY_STEPS}u; k++) {{\n        acc += {f}(p + (0.25 * f32(k)) * vec3<f32>(0.48, 0.36, 0.8));\n    }}\n    return acc;\n}}\n"
+    )
+}
+
 /// The generated `<name>_eval` cut after its last fetch, returning the mean
 /// of the fetched samples as `<name>_loads_only`: the same point location,
 /// addressing and loads with none of the arithmetic after them. None when
@@ -95,6 +113,8 @@ pub fn compare_reference(gpu: &Gpu, r: &Reference, points: usize, rounds: usize)
         agrees: false,
         note: None,
         loads_only_ratio: None,
+        ray_ratio: None,
+        ray_loads_only_ratio: None,
     };
     if references::uses_sampler(&r.source) && !can_filter_f32(gpu) {
         row.note = Some(format!(
@@ -110,6 +130,7 @@ pub fn compare_reference(gpu: &Gpu, r: &Reference, points: usize, rounds: usize)
     }?;
     let ours = program(&m.source, "", &format!("vec4<f32>({name}_eval(p), 0.0, 0.0, 0.0)"));
     let theirs = program(&m.source, &r.source, &format!("vec4<f32>({}(p), 0.0, 0.0, 0.0)", r.entry));
+    let ray = |extra: &str, f: &str| program(&m.source, &format!("{extra}\n{}", ray_shape(f)), &format!("vec4<f32>(bx_ray_{f}(p), 0.0, 0.0, 0.0)"));
     let a = Job::new(gpu, &ours, &m.file_name, &dv, &pts)?;
     let b = Job::new(gpu, &theirs, &r.name, &dv, &pts)?;
     // The check first: a reference that disagrees is not timed.
@@ -134,26 +155,65 @@ pub fn compare_reference(gpu: &Gpu, r: &Reference, points: usize, rounds: usize)
         return Ok(row);
     }
     // The ceiling of exact loads: the generated eval cut after its fetches.
-    let ceiling = match loads_only(&m.source, &name) {
-        Some(f) if !linear => {
-            let src = program(&m.source, &f, &format!("vec4<f32>({name}_loads_only(p), 0.0, 0.0, 0.0)"));
+    let cut = loads_only(&m.source, &name).filter(|_| !linear);
+    let ceiling = match &cut {
+        Some(f) => {
+            let src = program(&m.source, f, &format!("vec4<f32>({name}_loads_only(p), 0.0, 0.0, 0.0)"));
             Some(Job::new(gpu, &src, &format!("{name} loads only"), &dv, &pts)?)
         }
-        _ => None,
+        None => None,
     };
-    let mut jobs = vec![&a, &b];
+    // The ray-caster shape of the same three, timed in the same rounds.
+    let a_ray = Job::new(gpu, &ray("", &format!("{name}_eval")), &format!("{} ray", m.file_name), &dv, &pts)?;
+    let b_ray = Job::new(gpu, &ray(&r.source, &r.entry), &format!("{} ray", r.name), &dv, &pts)?;
+    let ceiling_ray = match &cut {
+        Some(f) => Some(Job::new(gpu, &ray(f, &format!("{name}_loads_only")), &format!("{name} loads only ray"), &dv, &pts)?),
+        None => None,
+    };
+    let mut jobs = vec![&a, &b, &a_ray, &b_ray];
     jobs.extend(ceiling.as_ref());
+    jobs.extend(ceiling_ray.as_ref());
     let rates = timed_rounds(gpu, &jobs, rounds)?;
     row.generated_evals_per_s = Some(median(&rates[0]));
     row.reference_evals_per_s = Some(median(&rates[1]));
     row.ratio = Some(Ratio::of_rates(&rates[0], &rates[1]));
-    row.loads_only_ratio = rates.get(2).map(|c| Ratio::of_rates(c, &rates[1]));
+    row.ray_ratio = Some(Ratio::of_rates(&rates[2], &rates[3]));
+    row.loads_only_ratio = rates.get(4).map(|c| Ratio::of_rates(c, &rates[1]));
+    row.ray_loads_only_ratio = rates.get(5).map(|c| Ratio::of_rates(c, &rates[3]));
+    row.note = shape_note(row.ratio.as_ref(), row.ray_ratio.as_ref());
     Ok(row)
+}
+
+/// "kernel shapes disagree: ..." when the one-evaluation and the ray-caster
+/// ratios differ by more than [`SHAPE_DISAGREEMENT`].
+pub fn shape_note(single: Option<&Ratio>, ray: Option<&Ratio>) -> Option<String> {
+    let (s, r) = (single?.median, ray?.median);
+    let apart = (s / r - 1.0).abs();
+    (apart > SHAPE_DISAGREEMENT).then(|| {
+        format!(
+            "kernel shapes disagree by {:.0}%: {s:.2}x with one evaluation per invocation, {r:.2}x in the ray-caster shape ({RAY_STEPS} evaluations per invocation); the ray-caster shape is the one a renderer sees",
+            apart * 100.0
+        )
+    })
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_ray_shape_validates_and_shapes_are_compared() {
+        let d = derive_filter("bcc7").unwrap();
+        let m = emit(&d, &EmitOptions { kernels: false, ..Default::default() }).unwrap();
+        let src = program(&m.source, &ray_shape("bcc7_eval"), "vec4<f32>(bx_ray_bcc7_eval(p), 0.0, 0.0, 0.0)");
+        let r = boxforge::validate::validate_wgsl(&src, "ray");
+        assert!(r.valid, "{:?}", r.error);
+        let ratio = |m: f64| Ratio { median: m, min: m, max: m, rounds: 1, tie: false };
+        assert!(shape_note(Some(&ratio(1.0)), Some(&ratio(1.05))).is_none());
+        let note = shape_note(Some(&ratio(1.39)), Some(&ratio(1.07))).unwrap();
+        assert!(note.contains("disagree by 30%"), "{note}");
+        assert!(shape_note(None, Some(&ratio(1.0))).is_none());
+    }
 
     /// The loads-only cut keeps the eval's point location and every fetch,
     /// drops the arithmetic after them, and is valid WGSL beside the module.

@@ -27,9 +27,9 @@ pub fn markdown(r: &BenchReport, command: &str) -> String {
     );
     let _ = writeln!(
         s,
-        "## Generated vs hand-written\n\nThe generated `<filter>_eval` beside hand-written shaders (runtime/references/, embedded in the binary; each cites its source), on the same random points of a random 64^3-ish volume, after checking max |generated - reference| < {:.0e} of the data range on those points (a comparison that fails the check is marked INVALID and not timed). Ratio: generated ÷ reference evals/s (above 1: the generated code is faster). Ops: `boxforge::emit::count_ops` on the generated eval body; on the reference, the same count over its entry function and, per call site, its own helpers (a vec4 `dot` counts 7), calls to `<filter>_fetch` excluded on both sides; fetches: texel loads over the call tree (naga) plus filtered fetches. Loads only: the generated eval cut after its fetches (same point location, addressing and clamped loads, returning the mean of the samples), timed in the same rounds, ÷ the reference: no evaluation with these loads can be faster, so it bounds the ratio reachable with exact loads on this adapter.\n", REFERENCE_TOLERANCE
+        "## Generated vs hand-written\n\nThe generated `<filter>_eval` beside hand-written shaders (runtime/references/, embedded in the binary; each cites its source), on the same random points of a random 64^3-ish volume, after checking max |generated - reference| < {:.0e} of the data range on those points (a comparison that fails the check is marked INVALID and not timed). Ratio: generated ÷ reference evals/s (above 1: the generated code is faster). Ops: `boxforge::emit::count_ops` on the generated eval body; on the reference, the same count over its entry function and, per call site, its own helpers (a vec4 `dot` counts 7), calls to `<filter>_fetch` excluded on both sides; fetches: texel loads over the call tree (naga) plus filtered fetches. Loads only: the generated eval cut after its fetches (same point location, addressing and clamped loads, returning the mean of the samples), timed in the same rounds, ÷ the reference: no evaluation with these loads can be faster, so it bounds the ratio reachable with exact loads on this adapter. Two kernel shapes, timed in the same interleaved rounds: one evaluation per invocation (the ratio and loads-only columns), and the ray-caster shape ({} evaluations per invocation a quarter cell apart along a short path, summed, one write: the \"ray\" columns); where the two ratios differ by more than {:.0}% the row says so.\n", REFERENCE_TOLERANCE, super::compare::RAY_STEPS, super::compare::SHAPE_DISAGREEMENT * 100.0
     );
-    let _ = writeln!(s, "| generated | reference | fetches (gen / ref) | ops (gen / ref) | generated evals/s | reference evals/s | ratio median [min..max] | tie? | loads only ÷ reference | max \\|diff\\| (of range) | source |\n|---|---|---|---|---|---|---|---|---|---|---|");
+    let _ = writeln!(s, "| generated | reference | fetches (gen / ref) | ops (gen / ref) | generated evals/s | reference evals/s | ratio median [min..max] | tie? | loads only ÷ reference | ray: ratio | ray: loads only ÷ reference | max \\|diff\\| (of range) | source |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for x in &r.references {
         let (ratio, tie) = ratio_cells(&x.ratio);
         let diff = match (x.max_abs_diff, x.rel_diff) {
@@ -47,7 +47,7 @@ pub fn markdown(r: &BenchReport, command: &str) -> String {
         };
         let _ = writeln!(
             s,
-            "| `{}` | {} (`{}`) | {} / {} | {} / {} | {} | {} | {}{} | {} | {} | {} | {} |",
+            "| `{}` | {} (`{}`) | {} / {} | {} / {} | {} | {} | {}{} | {} | {} | {} | {} | {} | {} |",
             x.generated,
             x.reference,
             x.entry,
@@ -61,12 +61,14 @@ pub fn markdown(r: &BenchReport, command: &str) -> String {
             if status.is_empty() { String::new() } else { format!(" {status}") },
             tie,
             ratio_cells(&x.loads_only_ratio).0,
+            ratio_cells(&x.ray_ratio).0,
+            ratio_cells(&x.ray_loads_only_ratio).0,
             diff,
             x.citation
         );
     }
     if r.references.is_empty() {
-        let _ = writeln!(s, "| (no references in this run) | | | | | | | | | | |");
+        let _ = writeln!(s, "| (no references in this run) | | | | | | | | | | | | |");
     }
     let _ = writeln!(s, "\n## Evaluation throughput\n\n| filter | layout | variant | kind | evals/s | ratio median [min..max] | tie? | baseline | fetches | ops | sample bytes |\n|---|---|---|---|---|---|---|---|---|---|---|");
     for row in r.rows.iter().filter(|x| x.evals_per_s.is_some()) {

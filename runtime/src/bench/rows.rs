@@ -93,6 +93,12 @@ pub struct ReferenceRow {
     /// the mean of the samples) ÷ the reference, in the same rounds: the
     /// most any evaluation with these loads could reach.
     pub loads_only_ratio: Option<Ratio>,
+    /// generated ÷ reference in the ray-caster kernel shape
+    /// ([`super::compare::RAY_STEPS`] evaluations per invocation along a
+    /// short path, one write), timed in the same rounds.
+    pub ray_ratio: Option<Ratio>,
+    /// The loads-only cut ÷ the reference, ray-caster shape.
+    pub ray_loads_only_ratio: Option<Ratio>,
 }
 
 #[derive(Clone, Debug, Serialize)]

@@ -56,6 +56,8 @@ fn references_agree_with_the_generated_eval_on_the_device() {
         let ratio = row.ratio.expect("timed");
         assert_eq!(ratio.rounds, 2);
         assert!(ratio.median > 0.0 && ratio.min <= ratio.median && ratio.median <= ratio.max);
+        let ray = row.ray_ratio.expect("the ray-caster shape is timed too");
+        assert!(ray.rounds == 2 && ray.min <= ray.median && ray.median <= ray.max, "{}: {ray:?}", r.name);
     }
     // The check can fail: Kim & Lee's formula without its 1/384 scale (the
     // published sum), or with a wrong one, is reported invalid and not timed.
