@@ -130,7 +130,9 @@ pub fn compare_reference(gpu: &Gpu, r: &Reference, points: usize, rounds: usize)
     }?;
     let ours = program(&m.source, "", &format!("vec4<f32>({name}_eval(p), 0.0, 0.0, 0.0)"));
     let theirs = program(&m.source, &r.source, &format!("vec4<f32>({}(p), 0.0, 0.0, 0.0)", r.entry));
-    let ray = |extra: &str, f: &str| program(&m.source, &format!("{extra}\n{}", ray_shape(f)), &format!("vec4<f32>(bx_ray_{f}(p), 0.0, 0.0, 0.0)"));
+    let ray = |extra: &str, f: &str| {
+        program(&m.source, &format!("{extra}\n{}", ray_shape(f)), &format!("vec4<f32>(bx_ray_{f}(p), 0.0, 0.0, 0.0)"))
+    };
     let a = Job::new(gpu, &ours, &m.file_name, &dv, &pts)?;
     let b = Job::new(gpu, &theirs, &r.name, &dv, &pts)?;
     // The check first: a reference that disagrees is not timed.
@@ -167,7 +169,9 @@ pub fn compare_reference(gpu: &Gpu, r: &Reference, points: usize, rounds: usize)
     let a_ray = Job::new(gpu, &ray("", &format!("{name}_eval")), &format!("{} ray", m.file_name), &dv, &pts)?;
     let b_ray = Job::new(gpu, &ray(&r.source, &r.entry), &format!("{} ray", r.name), &dv, &pts)?;
     let ceiling_ray = match &cut {
-        Some(f) => Some(Job::new(gpu, &ray(f, &format!("{name}_loads_only")), &format!("{name} loads only ray"), &dv, &pts)?),
+        Some(f) => {
+            Some(Job::new(gpu, &ray(f, &format!("{name}_loads_only")), &format!("{name} loads only ray"), &dv, &pts)?)
+        }
         None => None,
     };
     let mut jobs = vec![&a, &b, &a_ray, &b_ray];

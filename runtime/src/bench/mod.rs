@@ -31,7 +31,7 @@ mod run;
 pub use compare::{compare_reference, loads_only, REFERENCE_TOLERANCE};
 pub use error::BenchError;
 pub use job::{can_filter_f32, program, timed_rounds, Job};
-pub use markdown::markdown;
+pub use markdown::{markdown, references_section, splice_references};
 pub use options::{check_inputs, BenchOptions, External};
 pub use quality::{eval_rates, smooth_convergence};
 pub use rows::{BenchReport, BenchRow, ConvergenceRow, GradientRow, QualityRow, ReferenceRow};

@@ -82,7 +82,8 @@ fn references_agree_with_the_generated_eval_on_the_device() {
     let fcc = references::builtin().into_iter().find(|r| r.entry == "kim_fcc6").unwrap();
     let from = "let tet_type = 1.0 - (";
     assert!(fcc.source.contains(from));
-    let corner_only = references::Reference { source: fcc.source.replace(from, "let tet_type = 0.0 * ("), ..fcc.clone() };
+    let corner_only =
+        references::Reference { source: fcc.source.replace(from, "let tet_type = 0.0 * ("), ..fcc.clone() };
     let row = bench::compare_reference(gpu, &corner_only, 3000, 2).unwrap();
     assert!(!row.agrees, "{row:?}");
 }

@@ -46,6 +46,11 @@ pub struct BenchArgs {
     /// Skip the hand-written references (generated vs hand-written).
     #[arg(long)]
     no_references: bool,
+    /// Measure only the generated-vs-hand-written table (every built-in
+    /// reference, both kernel shapes): with --markdown, replaces only that
+    /// section of the file.
+    #[arg(long, conflicts_with_all = ["derive", "literature", "perm", "no_references", "filters"])]
+    references_only: bool,
     /// Interleaved timing rounds per comparison (default: 7, or 3 with --smoke).
     #[arg(long)]
     runs: Option<usize>,
@@ -74,6 +79,8 @@ pub fn run(a: BenchArgs) -> Result<(), Failure> {
         literature(&a)
     } else if a.perm {
         perm(&a)
+    } else if a.references_only {
+        references_only(&a)
     } else {
         main_report(a)
     }
@@ -142,6 +149,30 @@ fn literature(a: &BenchArgs) -> Result<(), Failure> {
     let report = report?;
     let text = bench::literature::markdown(&report, section.command());
     section.finish(&report, &text, bench::literature::splice, a.json)
+}
+
+/// `--references-only`: the generated-vs-hand-written table alone.
+fn references_only(a: &BenchArgs) -> Result<(), Failure> {
+    let gpu = open_gpu(a.adapter.as_deref())?;
+    let o = if a.smoke { bench::BenchOptions::smoke() } else { bench::BenchOptions::full() };
+    let rounds = a.runs.map_or(o.runs, |r| r.max(1));
+    let flags = format!("--references-only{}", smoke_runs(a, true));
+    let section = Section::new("generated-vs-hand-written", &flags, a.markdown.as_deref())?;
+    let steps = progress::Steps::new();
+    let mut rows = Vec::new();
+    for r in boxforge_runtime::references::builtin() {
+        steps.step(&format!("{} vs {}_eval, {rounds} rounds", r.name, r.like));
+        rows.push(bench::compare_reference(&gpu, &r, o.points, rounds)?);
+    }
+    steps.finish();
+    let measured_by = format!(
+        "This section was measured by its own run, `{}` on {} ({} interleaved rounds), not by the run that wrote the rest of the file.",
+        section.command(),
+        gpu.describe(),
+        rounds
+    );
+    let text = bench::references_section(&rows, Some(&measured_by));
+    section.finish(&rows, &text, bench::splice_references, a.json)
 }
 
 /// `--perm`: Lim and Shin's PERM cache against direct evaluation.
