@@ -186,6 +186,17 @@ fn hlsl_register_class(kind: &str) -> char {
 
 fn hlsl_units(p: &Prepared) -> Result<Vec<Unit>, BackError> {
     let target = Target::Hlsl;
+    if let Some(s) = p.kernel_bindings.iter().find(|b| b.kind.starts_with("sampler")) {
+        // naga reaches HLSL samplers through wgpu's DX12 sampler heap and a
+        // per-group index buffer, which a plain HLSL host does not have.
+        return Err(BackError::Unsupported {
+            file: format!("{}.hlsl", p.stem),
+            message: format!(
+                "the hlsl target cannot express the linear sampler `{}` (naga writes HLSL samplers as wgpu's DX12 sampler heap and index buffer): use --fetch exact for hlsl, or the wgsl, spirv, glsl, glsl-es or msl target for linear fetches",
+                s.name
+            ),
+        });
+    }
     let write = |v: &Validated, file: &str| -> Result<String, BackError> {
         let mut options = hlsl::Options {
             shader_model: hlsl::ShaderModel::V5_1,
