@@ -182,6 +182,10 @@ pub enum Error {
         /// naga's validation error, or why the branch-free check failed.
         message: String,
     },
+    /// A module that could not be translated into another language (the
+    /// message names the target and what works instead).
+    #[error(transparent)]
+    Translate(#[from] crate::back::BackError),
 }
 
 /// The generator's result type.

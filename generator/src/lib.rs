@@ -17,6 +17,9 @@
 //! * [`emit`]: branch-free point location, fetch order, evaluation forms and
 //!   the WGSL writer.
 //! * [`validate`]: naga validation and the branch-free / table-free proof.
+//! * [`back`]: the validated module translated by naga's backends into
+//!   SPIR-V, GLSL, GLSL ES, HLSL and MSL, checked, and compiled where a
+//!   compiler exists (`generate --target`).
 //! * [`build`]: the `build.rs` [`Builder`], atomic file output and reports.
 //! * [`math`]: exact rationals, linear algebra, polynomials, polytopes.
 
@@ -26,6 +29,7 @@
 // Every public item carries rustdoc (issue #9); `-D warnings` keeps it so.
 #![warn(missing_docs)]
 
+pub mod back;
 pub mod build;
 pub mod derive;
 pub mod emit;

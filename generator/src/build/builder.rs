@@ -38,6 +38,7 @@
 //! The header of every generated file names `boxforge::Builder (build.rs)`
 //! as the command that made it.
 
+use crate::back::{translate, Target, TranslateOptions};
 use crate::build::output::write_atomic;
 use crate::derive::Derivation;
 use crate::emit::{emit, Bounds, EmitOptions, EmitStats, EvalForm, FetchMode, Layout, Variant};
@@ -97,15 +98,18 @@ pub struct Builder {
     bounds: Bounds,
     fetch: FetchMode,
     caps: Option<Caps>,
+    target: Target,
     emit_rerun_if_changed: bool,
 }
 
 /// What [`Builder::generate`] wrote: one entry per filter, catalog filters
 /// first (in the order given), then spec files (in the order given).
-/// `files[i]` and `stats[i]` belong to the same module.
+/// For WGSL `files[i]` and `stats[i]` belong to the same module; other
+/// targets write several files per module, in module order.
 #[derive(Clone, Debug)]
 pub struct Generated {
-    /// Paths of the written modules, `<out_dir>/<filter>.<layout>[.naive].wgsl`.
+    /// Paths of the written files: `<out_dir>/<filter>.<layout>[.naive].wgsl`,
+    /// or with [`Builder::target`] every file of each translation.
     pub files: Vec<PathBuf>,
     /// The emitter's counts for each module (fetches per eval, operations, ...).
     pub stats: Vec<EmitStats>,
@@ -133,6 +137,7 @@ impl Builder {
             bounds: Bounds::Clamp,
             fetch: FetchMode::Exact,
             caps: None,
+            target: Target::Wgsl,
             emit_rerun_if_changed: std::env::var_os("OUT_DIR").is_some(),
         }
     }
@@ -207,6 +212,17 @@ impl Builder {
         self
     }
 
+    /// The language of the output (default [`Target::Wgsl`]). Any other
+    /// target translates each validated module with naga's backends
+    /// ([`crate::back::translate`]) and writes its files instead of the
+    /// WGSL: a library to include plus the kernels as compute shaders
+    /// (SPIR-V: one binary per kernel and `<stem>.spirv.txt`); see the
+    /// table in [`crate::back`].
+    pub fn target(mut self, t: Target) -> Self {
+        self.target = t;
+        self
+    }
+
     /// Output directory (default: `$OUT_DIR`; created if missing).
     pub fn out_dir(mut self, dir: impl AsRef<Path>) -> Self {
         self.out_dir = Some(dir.as_ref().to_path_buf());
@@ -244,7 +260,9 @@ impl Builder {
     /// [`Error::Spec`] for two filters with the same name; the cap and
     /// prefilter errors of [`Derivation::new`]; the errors of [`emit`];
     /// [`Error::InvalidWgsl`] for a module naga rejects or that is not
-    /// branch-free in the fast variant; [`Error::Io`] when writing fails.
+    /// branch-free in the fast variant; [`Error::Translate`] when a
+    /// [`Builder::target`] backend refuses a module or its check fails;
+    /// [`Error::Io`] when writing fails.
     pub fn generate(self) -> Result<Generated> {
         let out_dir = match &self.out_dir {
             Some(d) => d.clone(),
@@ -311,16 +329,25 @@ impl Builder {
             }
             let path = out_dir.join(&e.file_name);
             check_module(&f.name, &e.source, &path, self.variant)?;
-            modules.push((path, e));
+            let files: Vec<(PathBuf, Vec<u8>)> = if self.target == Target::Wgsl {
+                vec![(path, e.source.clone().into_bytes())]
+            } else {
+                let stem = e.file_name.strip_suffix(".wgsl").unwrap_or(&e.file_name);
+                let t = translate(&e.source, stem, self.target, &TranslateOptions::default())?;
+                t.units.into_iter().map(|u| (out_dir.join(&u.file_name), u.code.bytes())).collect()
+            };
+            modules.push((files, e.stats));
         }
         let mut generated = Generated { files: Vec::new(), stats: Vec::new() };
-        for (path, e) in modules {
-            // Leave an identical file alone (keeps its mtime for anything watching it).
-            if std::fs::read(&path).ok().as_deref() != Some(e.source.as_bytes()) {
-                write_atomic(&path, e.source.as_bytes())?;
+        for (files, stats) in modules {
+            for (path, bytes) in files {
+                // Leave an identical file alone (keeps its mtime for anything watching it).
+                if std::fs::read(&path).ok().as_deref() != Some(bytes.as_slice()) {
+                    write_atomic(&path, &bytes)?;
+                }
+                generated.files.push(path);
             }
-            generated.files.push(path);
-            generated.stats.push(e.stats);
+            generated.stats.push(stats);
         }
         Ok(generated)
     }
@@ -447,6 +474,38 @@ mod tests {
             assert!(matches!(b.generate(), Err(Error::OutDir)));
         }
         assert!(Error::OutDir.to_string().contains("out_dir"));
+    }
+
+    #[test]
+    fn builder_target_writes_the_translation() {
+        let dir = temp_dir("target");
+        let g = Builder::new()
+            .filter("zp")
+            .target(Target::Glsl)
+            .out_dir(&dir)
+            .emit_rerun_if_changed(false)
+            .generate()
+            .unwrap();
+        let names: Vec<String> =
+            g.files.iter().map(|p| p.file_name().unwrap().to_string_lossy().into_owned()).collect();
+        assert_eq!(
+            names,
+            ["zp.embedded.glsl", "zp.embedded.prefilter.comp", "zp.embedded.minmax.comp", "zp.embedded.eval.comp"]
+        );
+        let lib = std::fs::read_to_string(&g.files[0]).unwrap();
+        assert!(lib.starts_with(&format!("// generated by `{BUILDER_COMMAND}`")), "{lib}");
+        assert!(lib.contains("float zp_eval(vec2 p)") && !lib.contains("#version"), "{lib}");
+        assert!(!dir.join("zp.embedded.wgsl").exists(), "only the target's files");
+        let spv = Builder::new()
+            .filter("zp")
+            .target(Target::Spirv)
+            .out_dir(&dir)
+            .emit_rerun_if_changed(false)
+            .generate()
+            .unwrap();
+        let words = std::fs::read(spv.files.iter().find(|p| p.ends_with("zp.embedded.eval.spv")).unwrap()).unwrap();
+        assert_eq!(&words[..4], &crate::back::spirv::MAGIC.to_le_bytes());
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

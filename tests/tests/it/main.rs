@@ -9,4 +9,5 @@ mod partition_and_reproduction;
 mod random_directions;
 mod random_specs;
 mod shaders_out_fresh;
+mod targets;
 mod wgsl;

@@ -112,6 +112,31 @@ impl From<FetchArg> for FetchMode {
     }
 }
 
+/// `--target`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum TargetArg {
+    Wgsl,
+    Spirv,
+    Glsl,
+    GlslEs,
+    Hlsl,
+    Msl,
+}
+
+impl From<TargetArg> for boxforge::back::Target {
+    fn from(t: TargetArg) -> boxforge::back::Target {
+        use boxforge::back::Target;
+        match t {
+            TargetArg::Wgsl => Target::Wgsl,
+            TargetArg::Spirv => Target::Spirv,
+            TargetArg::Glsl => Target::Glsl,
+            TargetArg::GlslEs => Target::GlslEs,
+            TargetArg::Hlsl => Target::Hlsl,
+            TargetArg::Msl => Target::Msl,
+        }
+    }
+}
+
 /// The filters named on the command line, or the catalog with --all.
 pub fn filter_names(filters: Vec<String>, all: bool) -> Result<Vec<String>, Failure> {
     if all {

@@ -1,7 +1,7 @@
 //! `boxforge generate`: derive filters and write their WGSL modules and
 //! reports into a directory (or, with --check, compare with it).
 
-use crate::common::{derive_all, filter_names, Failure, FetchArg, FormArg, LayoutArg, VariantArg};
+use crate::common::{derive_all, filter_names, Failure, FetchArg, FormArg, LayoutArg, TargetArg, VariantArg};
 use crate::request;
 use boxforge::build::output::{self, ALL_LAYOUTS, ALL_VARIANTS};
 use boxforge::emit::{EvalForm, FetchMode, Layout, Variant};
@@ -31,13 +31,20 @@ pub struct GenerateArgs {
     /// any filter, embedded for one-coset tensor products).
     #[arg(long, value_enum, default_value = "exact")]
     fetch: FetchArg,
+    /// Shading language: WGSL (default; with the reports), or a translation
+    /// of every module by naga's backends: SPIR-V binaries per kernel, GLSL
+    /// 4.50 / GLSL ES 3.10, HLSL 5.1 or MSL 2.1, each a library to include
+    /// plus the kernels as compute shaders (no reports).
+    #[arg(long, value_enum, default_value = "wgsl")]
+    target: TargetArg,
     /// Do not write: exit 1 if any file in the directory differs (stale).
     #[arg(long)]
     check: bool,
 }
 
 pub fn run(a: GenerateArgs) -> Result<(), Failure> {
-    let GenerateArgs { filters, all, out, layout, variant, form, fetch, check } = a;
+    let GenerateArgs { filters, all, out, layout, variant, form, fetch, target, check } = a;
+    let target = boxforge::back::Target::from(target);
     let layout = layout.map(Layout::from);
     let variant = variant.map(Variant::from);
     let form = form.map(EvalForm::from);
@@ -73,6 +80,9 @@ pub fn run(a: GenerateArgs) -> Result<(), Failure> {
     if fetch == FetchMode::Linear {
         what.push_str(" --fetch linear");
     }
+    if target != boxforge::back::Target::Wgsl {
+        what.push_str(&format!(" --target {}", target.name()));
+    }
     let command = format!("boxforge generate {what} -o {}", out.display());
     let started = std::time::Instant::now();
     let derivations = derive_all(&resolved, |d, t| (d, t))?;
@@ -92,15 +102,15 @@ pub fn run(a: GenerateArgs) -> Result<(), Failure> {
         } else {
             layouts.clone()
         };
-        let files = output::generated_files_with(d, &command, &layouts, &variants, fetch)?;
+        let files = output::translated_files(d, &command, &layouts, &variants, fetch, target)?;
         if check {
-            for (name, text) in &files {
-                if std::fs::read_to_string(out.join(name)).ok().as_deref() != Some(text.as_str()) {
+            for (name, bytes) in &files {
+                if std::fs::read(out.join(name)).ok().as_deref() != Some(bytes.as_slice()) {
                     stale.push(out.join(name).display().to_string());
                 }
             }
         } else {
-            let written = output::write_files(&out, &files)?;
+            let written = output::write_byte_files(&out, &files)?;
             let list: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
             eprintln!("{:<16} derived in {seconds:.2} s: {}", d.filter.name, list.join(", "));
         }

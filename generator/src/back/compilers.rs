@@ -1,0 +1,207 @@
+//! The shader compilers of a Linux machine, run on translated units:
+//! glslang (`glslangValidator`, Debian `glslang-tools`) for GLSL and GLSL
+//! ES, and its HLSL front end for HLSL ("accepted by glslang": DXC is not
+//! there), `spirv-val` (Debian `spirv-tools`) for SPIR-V. Metal has no
+//! compiler on Linux: MSL is emitted and left uncompiled, and says so.
+//!
+//! A library unit cannot be compiled alone (it has no entry point), so it
+//! is compiled inside a harness: the language's version line, the library
+//! as written, and an entry point that calls `<f>_fetch`, `<f>_eval` and
+//! `<f>_eval_grad` by their public names, as a user's shader would.
+
+use super::{Code, Role, Target, Translated, Unit};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::OnceLock;
+
+/// What compiling one unit gave.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Outcome {
+    /// The compiler accepted it; `by` names the compiler, version and mode
+    /// (for HLSL: "accepted by glslang", not more).
+    Compiled {
+        /// E.g. `glslangValidator 12.0.0 (GLSL)`.
+        by: String,
+    },
+    /// The compiler rejected it (a boxforge or naga bug).
+    Failed {
+        /// The compiler.
+        by: String,
+        /// Its output.
+        message: String,
+    },
+    /// The compiler is not installed; `install` is the command that installs it.
+    Missing {
+        /// The program that was not found.
+        tool: &'static str,
+        /// The Debian command that installs it.
+        install: &'static str,
+    },
+    /// No compiler for this language exists on this kind of machine (MSL on Linux).
+    NotCompilable {
+        /// Why.
+        why: &'static str,
+    },
+}
+
+/// The Debian command that installs both compilers.
+pub const INSTALL: &str = "apt-get install -y glslang-tools spirv-tools";
+
+fn version_of(tool: &str) -> Option<String> {
+    let out = Command::new(tool).arg("--version").output().ok()?;
+    let text = String::from_utf8_lossy(&out.stdout).into_owned();
+    let first = text.lines().next()?.trim().to_string();
+    // `Glslang Version: 11:12.0.0` -> `12.0.0`; `SPIRV-Tools v2023.1 ...` -> `v2023.1`.
+    Some(match first.rsplit_once(':') {
+        Some((_, v)) if tool == "glslangValidator" => v.trim().to_string(),
+        _ => first.split_whitespace().nth(1).unwrap_or(&first).to_string(),
+    })
+}
+
+/// `glslangValidator`'s version, or None when it is not installed.
+pub fn glslang_version() -> Option<&'static str> {
+    static V: OnceLock<Option<String>> = OnceLock::new();
+    V.get_or_init(|| version_of("glslangValidator")).as_deref()
+}
+
+/// `spirv-val`'s version, or None when it is not installed.
+pub fn spirv_val_version() -> Option<&'static str> {
+    static V: OnceLock<Option<String>> = OnceLock::new();
+    V.get_or_init(|| version_of("spirv-val")).as_deref()
+}
+
+/// A private scratch directory per call (tests compile in parallel threads).
+fn scratch() -> PathBuf {
+    static N: AtomicUsize = AtomicUsize::new(0);
+    let d = std::env::temp_dir().join(format!(
+        "boxforge-compile-{}-{}",
+        std::process::id(),
+        N.fetch_add(1, Ordering::Relaxed)
+    ));
+    let _ = std::fs::create_dir_all(&d);
+    d
+}
+
+fn run(by: String, cmd: &mut Command, dir: &Path) -> Outcome {
+    let outcome = match cmd.output() {
+        Ok(o) if o.status.success() => Outcome::Compiled { by },
+        Ok(o) => Outcome::Failed {
+            by,
+            message: format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr))
+                .trim()
+                .to_string(),
+        },
+        Err(e) => Outcome::Failed { by, message: e.to_string() },
+    };
+    let _ = std::fs::remove_dir_all(dir);
+    outcome
+}
+
+/// The harness entry point that calls the library's functions by name.
+fn harness(t: &Translated, target: Target) -> String {
+    let f = &t.filter;
+    let d = t.dim;
+    let (point, ipoint) = match (target, d) {
+        (Target::Hlsl, 2) => ("float2(0.5, 0.25)", "int2(0, 0)"),
+        (Target::Hlsl, _) => ("float3(0.5, 0.25, 0.125)", "int3(0, 0, 0)"),
+        (_, 2) => ("vec2(0.5, 0.25)", "ivec2(0)"),
+        _ => ("vec3(0.5, 0.25, 0.125)", "ivec3(0)"),
+    };
+    let grad = match (target, d) {
+        (Target::Hlsl, 2) => "float3",
+        (Target::Hlsl, _) => "float4",
+        (_, 2) => "vec3",
+        _ => "vec4",
+    };
+    let body = format!(
+        "    float v = {f}_eval({point});\n    {grad} g = {f}_eval_grad({point});\n    float s = {f}_fetch({ipoint});\n"
+    );
+    if target == Target::Hlsl {
+        format!("\n[numthreads(1, 1, 1)]\nvoid boxforge_harness()\n{{\n{body}}}\n")
+    } else {
+        format!("\nlayout(local_size_x = 1) in;\nvoid main() {{\n{body}}}\n")
+    }
+}
+
+/// Compiles one unit of `t` with the compiler for its language.
+pub fn compile(t: &Translated, u: &Unit) -> Outcome {
+    let glslang = |mode: &str| glslang_version().map(|v| format!("glslangValidator {v} ({mode})"));
+    let missing_glslang = Outcome::Missing { tool: "glslangValidator", install: INSTALL };
+    match (&u.code, t.target) {
+        (_, Target::Msl) => Outcome::NotCompilable { why: "no Metal compiler runs on Linux" },
+        (Code::Text(_), _) if u.role == Role::Manifest => Outcome::NotCompilable { why: "a list of bindings" },
+        (Code::Text(text), Target::Wgsl) => {
+            let r = crate::validate::validate_wgsl(text, &u.file_name);
+            match r.error {
+                None => Outcome::Compiled { by: "naga 30 (WGSL validator)".into() },
+                Some(message) => Outcome::Failed { by: "naga 30 (WGSL validator)".into(), message },
+            }
+        }
+        (Code::Words(words), _) => {
+            let Some(v) = spirv_val_version() else {
+                return Outcome::Missing { tool: "spirv-val", install: INSTALL };
+            };
+            let dir = scratch();
+            let path = dir.join(&u.file_name);
+            let bytes: Vec<u8> = words.iter().flat_map(|w| w.to_le_bytes()).collect();
+            if let Err(e) = std::fs::write(&path, bytes) {
+                return Outcome::Failed { by: "spirv-val".into(), message: e.to_string() };
+            }
+            run(
+                format!("spirv-val {v} (Vulkan 1.1)"),
+                Command::new("spirv-val").arg("--target-env").arg("vulkan1.1").arg(&path),
+                &dir,
+            )
+        }
+        (Code::Text(text), Target::Glsl | Target::GlslEs) => {
+            let es = t.target == Target::GlslEs;
+            let Some(by) = glslang(if es { "GLSL ES" } else { "GLSL" }) else { return missing_glslang };
+            let source = if u.role == Role::Library {
+                let version = if es { "#version 310 es\n" } else { "#version 450 core\n" };
+                format!("{version}{text}{}", harness(t, t.target))
+            } else {
+                text.clone()
+            };
+            let dir = scratch();
+            let path = dir.join(format!("{}.comp", u.file_name));
+            if let Err(e) = std::fs::write(&path, source) {
+                return Outcome::Failed { by, message: e.to_string() };
+            }
+            run(by, Command::new("glslangValidator").arg(&path), &dir)
+        }
+        (Code::Text(text), Target::Hlsl | Target::Spirv) => {
+            let Some(by) = glslang("HLSL front end: accepted by glslang, DXC not available") else {
+                return missing_glslang;
+            };
+            let (source, entries) = if u.role == Role::Library {
+                (format!("{text}{}", harness(t, Target::Hlsl)), vec!["boxforge_harness".to_string()])
+            } else {
+                (text.clone(), u.entry_points.clone())
+            };
+            let dir = scratch();
+            let path = dir.join(&u.file_name);
+            if let Err(e) = std::fs::write(&path, source) {
+                return Outcome::Failed { by, message: e.to_string() };
+            }
+            for (k, entry) in entries.iter().enumerate() {
+                let out = dir.join(format!("{k}.spv"));
+                let mut cmd = Command::new("glslangValidator");
+                cmd.args(["-D", "-V", "-S", "comp", "-e", entry]).arg(&path).arg("-o").arg(&out);
+                match cmd.output() {
+                    Ok(o) if o.status.success() => {}
+                    Ok(o) => {
+                        let _ = std::fs::remove_dir_all(&dir);
+                        return Outcome::Failed {
+                            by,
+                            message: format!("entry {entry}: {}", String::from_utf8_lossy(&o.stdout).trim()),
+                        };
+                    }
+                    Err(e) => return Outcome::Failed { by, message: e.to_string() },
+                }
+            }
+            let _ = std::fs::remove_dir_all(&dir);
+            Outcome::Compiled { by }
+        }
+    }
+}
