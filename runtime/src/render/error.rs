@@ -12,3 +12,14 @@ pub enum RenderError {
     #[error("a {width}x{height} image needs {} bytes in one storage binding, over this device's max_storage_buffer_binding_size ({limit}); render a smaller target", *width as u64 * *height as u64 * 4)]
     TargetTooLarge { width: u32, height: u32, limit: u64 },
 }
+
+impl RenderError {
+    /// The error as a [`GpuError`], for the one-shot functions that return
+    /// one: a device error as it is, a refused target as its message.
+    pub(crate) fn into_gpu(self) -> GpuError {
+        match self {
+            RenderError::Gpu(e) => e,
+            other => GpuError::Runtime(other.to_string()),
+        }
+    }
+}
