@@ -20,6 +20,12 @@ pub enum RenderError {
     /// Projected tetrahedra's samples or visible tetrahedra past one storage binding.
     #[error("projected tetrahedra: the {what} take {bytes} bytes, over this adapter's storage-binding limit of {limit}: use a smaller volume (e.g. resampled from a downsampled file) or the ray caster")]
     PtTooLarge { what: &'static str, bytes: u64, limit: u64 },
+    /// A hand-written BCC scheme given samples on another lattice.
+    #[error("{scheme} reads BCC samples; the volume is on the {lattice} lattice")]
+    SchemeLattice { scheme: &'static str, lattice: String },
+    /// A hand-written scheme given samples in a layout its loads do not read.
+    #[error("{scheme} reads the embedded layout (one 3D texture of the samples); upload the volume in that layout")]
+    SchemeLayout { scheme: &'static str },
 }
 
 impl RenderError {
