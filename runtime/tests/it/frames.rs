@@ -193,12 +193,10 @@ fn a_scheme_frame_in_a_host_target_is_the_one_shot_image() {
     let scene = schemes::scene(gpu, &base, &vol, scheme, 2, o.block).unwrap().render(&tf, &o).unwrap();
     assert_eq!(rms(&scene.rgba, &one_shot.rgba), 0.0);
     // Another lattice is refused by type.
-    let cc = LatticeVolume::marschner_lobb(&boxforge::spec::lattice::Lattice::builtin("cc").unwrap(), [8, 8, 8]).unwrap();
+    let cc =
+        LatticeVolume::marschner_lobb(&boxforge::spec::lattice::Lattice::builtin("cc").unwrap(), [8, 8, 8]).unwrap();
     let cc = DeviceVolume::new(gpu, &cc, Layout::Embedded).unwrap();
-    assert!(matches!(
-        SchemeRenderer::new(gpu, &cc, scheme, &tf, look(&o)),
-        Err(RenderError::SchemeLattice { .. })
-    ));
+    assert!(matches!(SchemeRenderer::new(gpu, &cc, scheme, &tf, look(&o)), Err(RenderError::SchemeLattice { .. })));
 }
 
 /// wgpu's live-object counts on `device`.
@@ -249,8 +247,8 @@ fn frames_after_the_first_create_nothing_while_the_camera_moves() {
     // parameters, and for projected tetrahedra the back-to-front order)
     let renderers: Vec<(&str, usize, isize, Encode)> = vec![
         ("PERM", 1, 1, {
-            let mut r = PermRenderer::new(gpu, &bcc, &volume, &tf, look(&o), Quant { density: 2, gradient: 2 }, true)
-                .unwrap();
+            let mut r =
+                PermRenderer::new(gpu, &bcc, &volume, &tf, look(&o), Quant { density: 2, gradient: 2 }, true).unwrap();
             Box::new(move |enc, c| r.encode(enc, &t, c))
         }),
         ("projected tetrahedra", 1, 2, {
@@ -286,7 +284,9 @@ fn frames_after_the_first_create_nothing_while_the_camera_moves() {
             // buffers of queue.write_buffer (one per write, dropped once done).
             for (name, created) in frame(&mut encode, &orbit(k)) {
                 match name {
-                    "buffers" => assert!(created <= writes, "{what}: the frame of orbit camera {k} made {created} buffers"),
+                    "buffers" => {
+                        assert!(created <= writes, "{what}: the frame of orbit camera {k} made {created} buffers")
+                    }
                     "buffer memory" => {}
                     _ => assert_eq!(created, 0, "{what}: the frame of orbit camera {k} made {created} {name}"),
                 }

@@ -12,7 +12,7 @@
 
 use super::params::{dvr_params_for, DvrParams};
 use super::skip::{empty_flags, skip_flags};
-use super::transfer::Tf1d;
+use super::transfer::{Preint, Tf1d};
 use super::{DvrLook, DvrOptions};
 use crate::gpu::timing::timed_banded_frames;
 use crate::gpu::{Gpu, GpuError};
@@ -64,7 +64,8 @@ pub(crate) struct DvrCaster {
     /// Skipping flags, 1D table, pre-integration table (bindings 2 to 4).
     tables: [wgpu::Buffer; 3],
     extra: Vec<(u32, Extra)>,
-    presenter: Presenter,
+    /// Built by the first frame into a host's target (the one-shot frames need none).
+    presenter: Option<Presenter>,
     frame: Option<FrameImage>,
 }
 
@@ -73,11 +74,24 @@ impl DvrCaster {
     /// `look.preintegrate`, and the skipping flags of `parts.bounds`.
     pub(crate) fn new(gpu: &Gpu, table: Tf1d, look: DvrLook, parts: CasterParts) -> Result<DvrCaster, GpuError> {
         let pi = look.preintegrate.then(|| table.preintegrate(look.step as f64));
+        Self::with_preint(gpu, table, pi.as_ref(), look, parts)
+    }
+
+    /// [`DvrCaster::new`] with the pre-integration table already built (for
+    /// `look.step`; None: point samples, whatever `look.preintegrate` says).
+    pub(crate) fn with_preint(
+        gpu: &Gpu,
+        table: Tf1d,
+        pi: Option<&Preint>,
+        look: DvrLook,
+        parts: CasterParts,
+    ) -> Result<DvrCaster, GpuError> {
+        let look = DvrLook { preintegrate: pi.is_some(), ..look };
         let empty = empty_flags(&parts.bounds, &table);
         let empty_blocks = empty.iter().filter(|&&f| f != 0).count() as f64 / empty.len().max(1) as f64;
         let blocks = crate::render::blocks::blocks_per_axis(parts.dims, look.block);
         let flags = skip_flags(&empty, blocks, (look.step / look.block as f32).ceil() as i32);
-        let pi_entries: Vec<[f32; 4]> = pi.as_ref().map_or_else(|| vec![[0.0; 4]; 4], |p| p.entries.clone());
+        let pi_entries: Vec<[f32; 4]> = pi.map_or_else(|| vec![[0.0; 4]; 4], |p| p.entries.clone());
         let label = parts.label;
         Ok(DvrCaster {
             gpu: gpu.clone(),
@@ -85,7 +99,7 @@ impl DvrCaster {
             look,
             radius: parts.radius,
             dims: parts.dims,
-            pi_size: pi.as_ref().map_or(2, |p| p.size),
+            pi_size: pi.map_or(2, |p| p.size),
             empty_blocks,
             samples_layout: parts.samples.0,
             samples: parts.samples.1,
@@ -99,7 +113,7 @@ impl DvrCaster {
             ],
             table,
             extra: parts.extra,
-            presenter: Presenter::new(gpu)?,
+            presenter: None,
             frame: None,
         })
     }
@@ -154,10 +168,14 @@ impl DvrCaster {
             self.gpu.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
             self.last_params = Some(params);
         }
+        let presenter = match &mut self.presenter {
+            Some(p) => p,
+            None => self.presenter.insert(Presenter::new(&self.gpu)?),
+        };
         let frame = self.frame.as_mut().expect("allocated above");
         frame.encode(
             &self.gpu,
-            &mut self.presenter,
+            presenter,
             encoder,
             (self.label, pipeline, &self.samples),
             target.view,
@@ -170,7 +188,11 @@ impl DvrCaster {
     /// camera (the look is this core's): one warm-up and `o.frames` timed
     /// frames, in bands of rows with a progress bar when `o.progress`,
     /// read back as RGBA8.
-    pub(crate) fn timed_frames(&mut self, pipeline: &wgpu::ComputePipeline, o: &DvrOptions) -> Result<Frame, RenderError> {
+    pub(crate) fn timed_frames(
+        &mut self,
+        pipeline: &wgpu::ComputePipeline,
+        o: &DvrOptions,
+    ) -> Result<Frame, RenderError> {
         if o.width == 0 || o.height == 0 {
             return Err(RenderError::EmptyTarget);
         }

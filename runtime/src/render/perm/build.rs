@@ -6,8 +6,8 @@ use super::{build_index, formula, peel, select_cells, Counts, Index, Memory, Qua
 use crate::gpu::binding::{storage_entry, storage_texture_entry, texture_entry, uniform_entry};
 use crate::gpu::{Gpu, GpuError};
 use crate::render::blocks::block_bounds;
-use crate::render::dvr::transfer::Tf1d;
 use crate::render::dvr::caster::Extra;
+use crate::render::dvr::transfer::Tf1d;
 use crate::render::dvr::{caster_entries, filter_module, shader_source_with, DvrScene};
 use crate::volume::DeviceVolume;
 use std::time::Instant;

@@ -57,7 +57,7 @@ impl PermCache {
             layout: self.bgl.clone(),
             extra: self.extras(),
         };
-        let mut core = DvrCaster::new(scene.gpu, table.clone(), look, parts)?;
+        let mut core = DvrCaster::with_preint(scene.gpu, table.clone(), pi, look, parts)?;
         core.timed_frames(&self.pipeline, o).map_err(|e| e.into_gpu())
     }
 }

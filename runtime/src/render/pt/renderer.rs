@@ -92,7 +92,8 @@ pub struct PtRenderer {
     words_pipeline: wgpu::ComputePipeline,
     colour_layout: wgpu::BindGroupLayout,
     words_layout: wgpu::BindGroupLayout,
-    presenter: Presenter,
+    /// Built by the first frame into a host's target (the one-shot frames need none).
+    presenter: Option<Presenter>,
     images: Option<Images>,
 }
 
@@ -226,7 +227,7 @@ impl PtRenderer {
             words_pipeline,
             colour_layout,
             words_layout,
-            presenter: Presenter::new(gpu)?,
+            presenter: None,
             images: None,
         })
     }
@@ -257,11 +258,15 @@ impl PtRenderer {
         camera: &Camera,
     ) -> Result<(), RenderError> {
         self.prepare(target.width, target.height, camera)?;
+        let presenter = match &mut self.presenter {
+            Some(p) => p,
+            None => self.presenter.insert(Presenter::new(&self.gpu)?),
+        };
         let images = self.images.as_mut().expect("allocated by prepare");
         draw(encoder, &self.pipeline, &self.group, &images.view, self.drawn);
         images.words.encode(
             &self.gpu,
-            &mut self.presenter,
+            presenter,
             encoder,
             ("pt words", &self.words_pipeline, &images.colour),
             target.view,
@@ -363,8 +368,10 @@ impl PtRenderer {
             let mut enc = self.gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("pt") });
             draw(&mut enc, &self.pipeline, &self.group, &images.view, self.drawn);
             {
-                let mut pass =
-                    enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("pt words"), timestamp_writes: None });
+                let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("pt words"),
+                    timestamp_writes: None,
+                });
                 pass.set_pipeline(&self.words_pipeline);
                 pass.set_bind_group(0, &images.colour, &[]);
                 pass.set_bind_group(1, &images.words.caster, &[]);

@@ -21,9 +21,9 @@
 
 use crate::gpu::{Gpu, GpuError};
 use crate::references::MATTAUSCH_BILINEAR;
+use crate::render::dvr::caster::look_of;
 use crate::render::dvr::transfer::TransferFunction;
 use crate::render::dvr::{dvr_template, filter_module, Custom, DvrOptions, DvrScene};
-use crate::render::dvr::caster::look_of;
 use crate::render::iso::Frame;
 use crate::render::RenderError;
 use crate::volume::{DeviceVolume, LatticeVolume};
@@ -170,8 +170,8 @@ pub fn render(
     let view = crate::render::iso::view_direction(o.azimuth, o.elevation);
     let axis = stack_for_view(view);
     let volume = DeviceVolume::new(gpu, vol, Layout::Embedded)?;
-    let mut renderer = SchemeRenderer::with_first_stack(gpu, &volume, scheme, tf, look_of(o), axis)
-        .map_err(RenderError::into_gpu)?;
+    let mut renderer =
+        SchemeRenderer::with_first_stack(gpu, &volume, scheme, tf, look_of(o), axis).map_err(RenderError::into_gpu)?;
     let frame = renderer.timed_frames(o).map_err(RenderError::into_gpu)?;
     Ok((frame, choice_line(scheme, view, axis)))
 }

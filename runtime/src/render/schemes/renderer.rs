@@ -77,8 +77,10 @@ impl SchemeRenderer {
             layout: &samples_layout,
             entries: &volume.bind_entries(0),
         });
-        let layout =
-            dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("dvr"), entries: &caster_entries() });
+        let layout = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("dvr"),
+            entries: &caster_entries(),
+        });
         let parts = CasterParts {
             label: "dvr",
             radius: crate::verify::support_radius(&base),
