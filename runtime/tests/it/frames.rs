@@ -62,13 +62,17 @@ fn look(o: &DvrOptions) -> DvrLook {
 
 /// A host's colour target: render attachment, and copy source to read it back.
 fn target(gpu: &Gpu) -> wgpu::Texture {
+    target_of(gpu, FORMAT)
+}
+
+fn target_of(gpu: &Gpu, format: wgpu::TextureFormat) -> wgpu::Texture {
     gpu.device.create_texture(&wgpu::TextureDescriptor {
         label: Some("host target"),
         size: wgpu::Extent3d { width: SIZE, height: SIZE, depth_or_array_layers: 1 },
         mip_level_count: 1,
         sample_count: 1,
         dimension: wgpu::TextureDimension::D2,
-        format: FORMAT,
+        format,
         usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
         view_formats: &[],
     })
@@ -102,12 +106,25 @@ fn host_frame(
     gpu: &Gpu,
     encode: impl FnOnce(&mut wgpu::CommandEncoder, &Target<'_>) -> Result<(), RenderError>,
 ) -> Vec<u8> {
-    let texture = target(gpu);
+    host_frame_in(gpu, FORMAT, encode)
+}
+
+/// [`host_frame`] into a target of `format` (Rgba8 or Bgra8), as RGBA.
+fn host_frame_in(
+    gpu: &Gpu,
+    format: wgpu::TextureFormat,
+    encode: impl FnOnce(&mut wgpu::CommandEncoder, &Target<'_>) -> Result<(), RenderError>,
+) -> Vec<u8> {
+    let texture = target_of(gpu, format);
     let view = texture.create_view(&Default::default());
     let mut enc = gpu.device.create_command_encoder(&Default::default());
-    encode(&mut enc, &Target { view: &view, format: FORMAT, width: SIZE, height: SIZE }).unwrap();
+    encode(&mut enc, &Target { view: &view, format, width: SIZE, height: SIZE }).unwrap();
     gpu.queue.submit([enc.finish()]);
-    read(gpu, &texture)
+    let mut texels = read(gpu, &texture);
+    if matches!(format, wgpu::TextureFormat::Bgra8Unorm | wgpu::TextureFormat::Bgra8UnormSrgb) {
+        texels.chunks_mut(4).for_each(|p| p.swap(0, 2));
+    }
+    texels
 }
 
 /// Pixels away from the background (20, 20, 26) by more than 2 levels.
@@ -162,6 +179,9 @@ fn a_projected_tetrahedra_frame_in_a_host_target_is_the_one_shot_image() {
     assert!(stats.drawn > 0 && stats.drawn < stats.total, "the masks leave out some tetrahedra");
     let frame = host_frame(gpu, |enc, t| renderer.encode(enc, t, &camera));
     check("projected tetrahedra", &frame, &one_shot.rgba);
+    // A surface's format: the sRGB target stores the image's bytes.
+    let srgb = host_frame_in(gpu, wgpu::TextureFormat::Bgra8UnormSrgb, |enc, t| renderer.encode(enc, t, &camera));
+    check("projected tetrahedra, Bgra8UnormSrgb", &srgb, &one_shot.rgba);
     // Perspective is refused by type, not drawn wrong.
     let perspective = Camera { perspective: true, ..camera };
     let texture = target(gpu);
