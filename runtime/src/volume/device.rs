@@ -20,6 +20,8 @@ pub struct DeviceVolume {
     pub bytes: usize,
     /// Lattice samples per axis of the volume (what the ray casters bound their rays by).
     pub dims: [usize; 3],
+    /// The samples' lattice (a renderer written for one lattice checks it).
+    pub lattice: boxforge::spec::lattice::Lattice,
 }
 
 impl DeviceVolume {
@@ -39,6 +41,7 @@ impl DeviceVolume {
                     buffers: vec![],
                     bytes: v.data.len() * 4,
                     dims: v.dims,
+                    lattice: v.lattice.clone(),
                 })
             }
             Layout::Packed => {
@@ -54,6 +57,7 @@ impl DeviceVolume {
                     buffers: vec![samples, grid],
                     bytes: words.len() * 4,
                     dims: v.dims,
+                    lattice: v.lattice.clone(),
                 })
             }
         }

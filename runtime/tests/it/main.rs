@@ -8,6 +8,7 @@ mod bench_smoke;
 mod cli;
 mod common;
 mod dvr;
+mod frames;
 mod gpu_verify;
 mod hit;
 mod mattausch_references;

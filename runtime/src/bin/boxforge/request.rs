@@ -309,6 +309,7 @@ pub fn perm_failure(e: &PermError) -> String {
             "GPU error: --cache perm: the {label} need {words} words, more than a 3D texture of {max}^3 texels holds; use a smaller --qc or --qc-grad"
         ),
         PermError::Gpu(e) => e.to_string(),
+        PermError::Render(e) => e.to_string(),
     }
 }
 

@@ -30,6 +30,7 @@
 //! every segment starting in that block (they end in empty blocks), so the
 //! segment grid, and the image, are those of the unskipped ray.
 
+pub(crate) mod caster;
 mod cpu;
 mod params;
 pub mod renderer;
@@ -40,7 +41,7 @@ pub mod transfer;
 pub use cpu::{cpu_render, rms};
 pub use params::{dvr_params, DvrParams};
 pub use renderer::{DvrLook, DvrRenderer};
-pub(crate) use scene::{caster_entries, Caster, Custom};
+pub(crate) use scene::{caster_entries, Custom};
 pub use scene::{render, DvrScene};
 pub use skip::{empty_flags, skip_flags, widen_bounds};
 

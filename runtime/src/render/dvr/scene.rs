@@ -85,6 +85,11 @@ impl<'a> DvrScene<'a> {
         Ok(DvrScene { gpu, d, vol, block, pipeline, bgl_rc, bgl_s, bg_s, dv, bounds })
     }
 
+    /// The edge of the skipping blocks the scene bounded, in unit cubes.
+    pub(crate) fn block(&self) -> i32 {
+        self.block
+    }
+
     /// Renders one image (a warm-up frame, then `o.frames` timed frames);
     /// `empty_blocks` is the fraction of blocks the transfer function leaves
     /// transparent (fewer are skipped: see [`skip_flags`]).
@@ -97,18 +102,6 @@ impl<'a> DvrScene<'a> {
     /// [`DvrScene::render`] with tables already built (the pre-integration
     /// table must be for `o.step`; None renders without pre-integration).
     pub fn render_tables(&self, table: &Tf1d, pi: Option<&Preint>, o: &DvrOptions) -> Result<Frame, GpuError> {
-        self.render_with(table, pi, o, None)
-    }
-
-    /// [`DvrScene::render_tables`] with the scene's ray caster, or another
-    /// one (a cache's lookup built on top of DVR).
-    pub(crate) fn render_with(
-        &self,
-        table: &Tf1d,
-        pi: Option<&Preint>,
-        o: &DvrOptions,
-        caster: Option<Caster<'_>>,
-    ) -> Result<Frame, GpuError> {
         let (gpu, dev) = (self.gpu, &self.gpu.device);
         if o.block != self.block {
             return Err(GpuError::Runtime(format!(
@@ -136,24 +129,18 @@ impl<'a> DvrScene<'a> {
         let flags_buf = gpu.storage_buffer("dvr flags", bytemuck::cast_slice(&flags), false);
         let tf_buf = gpu.storage_buffer("dvr tf", bytemuck::cast_slice(&table.entries), false);
         let pi_buf = gpu.storage_buffer("dvr preint", bytemuck::cast_slice(&pi_entries), false);
-        let mut entries = vec![
+        let entries = [
             wgpu::BindGroupEntry { binding: 0, resource: params_buf.as_entire_binding() },
             wgpu::BindGroupEntry { binding: 1, resource: image.as_entire_binding() },
             wgpu::BindGroupEntry { binding: 2, resource: flags_buf.as_entire_binding() },
             wgpu::BindGroupEntry { binding: 3, resource: tf_buf.as_entire_binding() },
             wgpu::BindGroupEntry { binding: 4, resource: pi_buf.as_entire_binding() },
         ];
-        let (pipeline, layout) = match caster {
-            Some(c) => {
-                entries.extend(c.extra);
-                (c.pipeline, c.bgl)
-            }
-            None => (&self.pipeline, &self.bgl_rc),
-        };
-        let bg_rc = dev.create_bind_group(&wgpu::BindGroupDescriptor { label: None, layout, entries: &entries });
+        let bg_rc =
+            dev.create_bind_group(&wgpu::BindGroupDescriptor { label: None, layout: &self.bgl_rc, entries: &entries });
         let times = crate::gpu::timing::timed_banded_frames(
             gpu,
-            pipeline,
+            &self.pipeline,
             [&self.bg_s, &bg_rc],
             (&params_buf, params, |p: &mut DvrParams, y0| p.image[3] = y0 as i32),
             (o.width, o.height, if o.progress { 16 } else { o.height }),
@@ -176,14 +163,6 @@ pub(crate) fn caster_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
         storage_entry(3, true),
         storage_entry(4, true),
     ]
-}
-
-/// A ray caster other than the scene's own: its pipeline, its group-1
-/// layout and the group-1 entries it adds after binding 4.
-pub(crate) struct Caster<'b> {
-    pub pipeline: &'b wgpu::ComputePipeline,
-    pub bgl: &'b wgpu::BindGroupLayout,
-    pub extra: Vec<wgpu::BindGroupEntry<'b>>,
 }
 
 /// The ray-cast function of [`DvrScene::with_source`].

@@ -6,8 +6,10 @@ use super::{build_index, formula, peel, select_cells, Counts, Index, Memory, Qua
 use crate::gpu::binding::{storage_entry, storage_texture_entry, texture_entry, uniform_entry};
 use crate::gpu::{Gpu, GpuError};
 use crate::render::blocks::block_bounds;
+use crate::render::dvr::caster::Extra;
 use crate::render::dvr::transfer::Tf1d;
 use crate::render::dvr::{caster_entries, filter_module, shader_source_with, DvrScene};
+use crate::volume::DeviceVolume;
 use std::time::Instant;
 use wgpu::util::DeviceExt;
 
@@ -70,6 +72,15 @@ pub struct PermCache {
     pub(super) words: [CacheWords; 2],
 }
 
+/// What a cache is built on: the device, the filter, its samples on the
+/// device, and their group 0 (layout and bind group) as the ray caster binds it.
+pub(crate) struct On<'a> {
+    pub gpu: &'a Gpu,
+    pub d: &'a boxforge::derive::Derivation,
+    pub volume: &'a DeviceVolume,
+    pub samples: (&'a wgpu::BindGroupLayout, &'a wgpu::BindGroup),
+}
+
 /// Workgroups (x, y) of 64 threads covering `threads`, and threads per row.
 fn grid(threads: u64) -> ((u32, u32, u32), u32) {
     let groups = threads.div_ceil(64).max(1);
@@ -104,6 +115,9 @@ pub enum PermError {
     /// The device refused a step of the build.
     #[error(transparent)]
     Gpu(#[from] GpuError),
+    /// A frame could not be drawn (an empty or too large target).
+    #[error(transparent)]
+    Render(#[from] crate::render::RenderError),
 }
 
 impl PermCache {
@@ -129,22 +143,39 @@ impl PermCache {
         preintegrate: bool,
         peel_termination: Option<f32>,
     ) -> Result<PermCache, PermError> {
+        let on = On { gpu: scene.gpu, d: scene.d, volume: &scene.dv, samples: (&scene.bgl_s, &scene.bg_s) };
+        Self::build_on(on, table, quant, step, preintegrate, peel_termination).map(|(cache, _)| cache)
+    }
+
+    /// [`PermCache::build_peeled`] on samples already on the device (their
+    /// group 0 laid out and bound by the caller, whose ray caster binds the
+    /// same group); also returns the preprocessing module, whose emitted
+    /// min/max kernel the caller may bound its skipping blocks with.
+    pub(crate) fn build_on(
+        on: On<'_>,
+        table: &Tf1d,
+        quant: Quant,
+        step: f32,
+        preintegrate: bool,
+        peel_termination: Option<f32>,
+    ) -> Result<(PermCache, wgpu::ShaderModule), PermError> {
         let start = Instant::now();
-        let (gpu, d, vol) = (scene.gpu, scene.d, scene.vol);
+        let (gpu, d, volume) = (on.gpu, on.d, on.volume);
+        let (samples_layout, samples) = on.samples;
         let dev = &gpu.device;
         let name = &d.filter.name;
-        let dims = vol.dims;
+        let dims = volume.dims;
         if dims[0] > MAX_ROW {
             return Err(PermError::RowTooLong { cells: dims[0] });
         }
-        let layout = scene.dv.layout;
+        let layout = volume.layout;
         let build_src = format!(
             "{}\n{}",
             filter_module(d, layout)?,
             template(include_str!("../../../../templates/perm_build.wgsl.j2"), name)
         );
         let build = gpu.compile(&format!("{name}.perm_build.wgsl"), &build_src)?;
-        let bounds = block_bounds(gpu, &build, name, &scene.dv, dims, 1)?;
+        let bounds = block_bounds(gpu, &build, name, volume, dims, 1)?;
         let radius = if preintegrate { step.ceil() as i32 } else { 0 };
         let (visible, mut candidate) = select_cells(&bounds, dims, table, radius);
         let peeled = peel_termination.map_or(0, |t| peel(&bounds, dims, table, step, t, &mut candidate));
@@ -196,9 +227,9 @@ impl PermCache {
                     wgpu::BindGroupEntry { binding: 3, resource: gmax_buf.as_entire_binding() },
                 ],
             });
-            let pipe = gpu.pipeline(entry, &build, &[&scene.bgl_s, &bgl_b], &format!("{name}_{entry}"))?;
+            let pipe = gpu.pipeline(entry, &build, &[samples_layout, &bgl_b], &format!("{name}_{entry}"))?;
             if threads > 0 {
-                gpu.dispatch(entry, &pipe, &[&scene.bg_s, &bg], groups)?;
+                gpu.dispatch(entry, &pipe, &[samples, &bg], groups)?;
             }
             gpu.wait()
         };
@@ -227,7 +258,7 @@ impl PermCache {
         ]);
         let bgl = dev
             .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("dvr perm"), entries: &entries });
-        let pipeline = gpu.pipeline("dvr perm", &shader, &[&scene.bgl_s, &bgl], &format!("{name}_dvr_main"))?;
+        let pipeline = gpu.pipeline("dvr perm", &shader, &[samples_layout, &bgl], &format!("{name}_dvr_main"))?;
         let params = PermParams {
             dims: [dims[0] as i32, dims[1] as i32, dims[2] as i32, 0],
             quant: [quant.density, quant.gradient, n3 as u32, m3 as u32],
@@ -247,7 +278,7 @@ impl PermCache {
             gradient: g / 4 * 3,
             sign: g / 4,
         };
-        Ok(PermCache {
+        let cache = PermCache {
             counts,
             visible,
             memory,
@@ -264,7 +295,22 @@ impl PermCache {
             params,
             buffers: [iv, sat],
             words: [db, gb],
-        })
+        };
+        Ok((cache, build))
+    }
+
+    /// The cache's group-1 resources after the DVR template's five: its
+    /// parameters, the index volume, the summed-area table, the densities
+    /// and the gradients (bindings 5 to 9 of templates/perm.wgsl.j2).
+    pub(crate) fn extras(&self) -> Vec<(u32, Extra)> {
+        let [iv, sat] = &self.buffers;
+        vec![
+            (5, Extra::Buffer(self.params.clone())),
+            (6, Extra::Buffer(iv.clone())),
+            (7, Extra::Buffer(sat.clone())),
+            (8, Extra::Texture(self.words[0].view.clone())),
+            (9, Extra::Texture(self.words[1].view.clone())),
+        ]
     }
 
     /// The densities as stored (16-bit fixed point, decoded to values).

@@ -42,6 +42,7 @@ mod index;
 mod memory;
 mod peel;
 mod render;
+mod renderer;
 mod texture;
 
 pub use build::{PermCache, PermError};
@@ -49,6 +50,7 @@ pub use index::{build_index, select_cells, Index};
 pub use memory::{formula, Counts, Memory, Quant};
 pub use peel::peel;
 pub use render::render;
+pub use renderer::PermRenderer;
 pub use texture::texel_extent;
 
 /// Bytes of one index-volume entry (b_iv).

@@ -1,13 +1,20 @@
-//! Rendering with a PERM cache.
+//! Rendering with a PERM cache: a frame of a cache built on a [`DvrScene`]
+//! (the bench's and the tests' comparisons with direct evaluation), and
+//! the one-shot image of `render --cache perm`, both through the same
+//! per-frame core as [`super::PermRenderer`].
 
-use super::{PermCache, PermError, Quant};
+use super::{PermCache, PermError, PermRenderer, Quant};
 use crate::gpu::{Gpu, GpuError};
+use crate::render::dvr::caster::{look_of, CasterParts, DvrCaster};
 use crate::render::dvr::transfer::{Preint, Tf1d, TransferFunction};
-use crate::render::dvr::{Caster, DvrOptions, DvrScene};
+use crate::render::dvr::{DvrLook, DvrOptions, DvrScene};
 use crate::render::iso::Frame;
+use crate::volume::DeviceVolume;
 
 impl PermCache {
-    /// Renders with the cache (the same tables it was built for).
+    /// Renders with the cache (the same tables it was built for), on the
+    /// samples and the skipping blocks of `scene` (whose block edge must
+    /// be `o.block`).
     pub fn render(
         &self,
         scene: &DvrScene,
@@ -27,19 +34,36 @@ impl PermCache {
                 self.step, self.preintegrate
             )));
         }
-        let b = &self.buffers;
-        let extra = vec![
-            wgpu::BindGroupEntry { binding: 5, resource: self.params.as_entire_binding() },
-            wgpu::BindGroupEntry { binding: 6, resource: b[0].as_entire_binding() },
-            wgpu::BindGroupEntry { binding: 7, resource: b[1].as_entire_binding() },
-            wgpu::BindGroupEntry { binding: 8, resource: wgpu::BindingResource::TextureView(&self.words[0].view) },
-            wgpu::BindGroupEntry { binding: 9, resource: wgpu::BindingResource::TextureView(&self.words[1].view) },
-        ];
-        scene.render_with(table, pi, o, Some(Caster { pipeline: &self.pipeline, bgl: &self.bgl, extra }))
+        if o.block != scene.block() {
+            return Err(GpuError::Runtime(format!(
+                "the scene's block grid has edge {}, the options ask for {}",
+                scene.block(),
+                o.block
+            )));
+        }
+        if let Some(p) = pi.filter(|p| p.step != o.step) {
+            return Err(GpuError::Runtime(format!(
+                "the pre-integration table is for step {}, the options ask for step {}",
+                p.step, o.step
+            )));
+        }
+        let look = DvrLook { preintegrate: pi.is_some(), ..look_of(o) };
+        let parts = CasterParts {
+            label: "dvr perm",
+            radius: crate::verify::support_radius(scene.d),
+            dims: scene.dv.dims,
+            bounds: scene.bounds.clone(),
+            samples: (scene.bgl_s.clone(), scene.bg_s.clone()),
+            layout: self.bgl.clone(),
+            extra: self.extras(),
+        };
+        let mut core = DvrCaster::with_preint(scene.gpu, table.clone(), pi, look, parts)?;
+        core.timed_frames(&self.pipeline, o).map_err(|e| e.into_gpu())
     }
 }
 
-/// One PERM image (`render --cache perm [--peel]`): the scene, the cache, a render.
+/// One PERM image (`render --cache perm [--peel]`): the samples uploaded,
+/// a [`PermRenderer`] built for `o`'s look, its timed frames.
 #[allow(clippy::too_many_arguments)]
 pub fn render(
     gpu: &Gpu,
@@ -51,11 +75,8 @@ pub fn render(
     quant: Quant,
     peel: bool,
 ) -> Result<(Frame, PermCache), PermError> {
-    let scene = DvrScene::new(gpu, d, vol, layout, o.block)?;
-    let table = tf.table();
-    let pi = o.preintegrate.then(|| table.preintegrate(o.step as f64));
-    let termination = peel.then_some(o.termination);
-    let cache = PermCache::build_peeled(&scene, &table, quant, o.step, o.preintegrate, termination)?;
-    let frame = cache.render(&scene, &table, pi.as_ref(), o)?;
-    Ok((frame, cache))
+    let volume = DeviceVolume::new(gpu, vol, layout)?;
+    let mut renderer = PermRenderer::new(gpu, d, &volume, tf, look_of(o), quant, peel)?;
+    let frame = renderer.timed_frames(o)?;
+    Ok((frame, renderer.into_cache()))
 }

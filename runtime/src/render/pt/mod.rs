@@ -6,7 +6,10 @@
 //! order, one instanced draw) backs `render --renderer pt`.
 
 pub mod render;
+pub mod renderer;
 pub mod tets;
+
+pub use renderer::{PtOptions, PtRenderer};
 
 /// The WGSL of the projected-tetrahedra render pipeline.
 pub const SHADER: &str = include_str!("../../../../templates/pt.wgsl");

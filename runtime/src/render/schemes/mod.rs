@@ -21,12 +21,18 @@
 
 use crate::gpu::{Gpu, GpuError};
 use crate::references::MATTAUSCH_BILINEAR;
+use crate::render::dvr::caster::look_of;
 use crate::render::dvr::transfer::TransferFunction;
 use crate::render::dvr::{dvr_template, filter_module, Custom, DvrOptions, DvrScene};
 use crate::render::iso::Frame;
-use crate::volume::LatticeVolume;
+use crate::render::RenderError;
+use crate::volume::{DeviceVolume, LatticeVolume};
 use boxforge::derive::Derivation;
 use boxforge::emit::Layout;
+
+mod renderer;
+
+pub use renderer::SchemeRenderer;
 
 /// Cells around a point whose samples a scheme's value combines: the
 /// square of spacing 2 around it in its plane, and the planes below and above.
@@ -105,7 +111,7 @@ pub fn dvr_source(base: &Derivation, scheme: Scheme, axis: usize) -> Result<Stri
     let p = scheme.prefix();
     let f = scheme.name();
     let adapter = format!(
-        "// {p}: {f} on plane stack {axis} for the DVR template (runtime/src/schemes.rs).
+        "// {p}: {f} on plane stack {axis} for the DVR template (runtime/src/render/schemes/mod.rs).
 const {p}_AXIS: i32 = {axis};
 
 fn {p}_eval(p: vec3<f32>) -> f32 {{
@@ -152,7 +158,8 @@ pub fn scene<'a>(
 }
 
 /// One DVR image of `scheme`, its plane stack chosen from the view: the
-/// frame and the render log's line for the choice.
+/// samples uploaded, a [`SchemeRenderer`] built for `o`'s look, its timed
+/// frames; the frame and the render log's line for the choice.
 pub fn render(
     gpu: &Gpu,
     vol: &LatticeVolume,
@@ -160,10 +167,12 @@ pub fn render(
     tf: &TransferFunction,
     o: &DvrOptions,
 ) -> Result<(Frame, String), GpuError> {
-    let base = base()?;
     let view = crate::render::iso::view_direction(o.azimuth, o.elevation);
     let axis = stack_for_view(view);
-    let frame = scene(gpu, &base, vol, scheme, axis, o.block)?.render(tf, o)?;
+    let volume = DeviceVolume::new(gpu, vol, Layout::Embedded)?;
+    let mut renderer =
+        SchemeRenderer::with_first_stack(gpu, &volume, scheme, tf, look_of(o), axis).map_err(RenderError::into_gpu)?;
+    let frame = renderer.timed_frames(o).map_err(RenderError::into_gpu)?;
     Ok((frame, choice_line(scheme, view, axis)))
 }
 
