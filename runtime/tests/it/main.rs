@@ -10,6 +10,7 @@ mod common;
 mod dvr;
 mod gpu_verify;
 mod hit;
+mod host_depth;
 mod mattausch_references;
 mod perm;
 mod prefilter;
