@@ -284,3 +284,46 @@ pub fn view_direction(azimuth: f32, elevation: f32) -> [f64; 3] {
     let toward_eye = Vec3::new(el.cos() * az.cos(), el.cos() * az.sin(), el.sin());
     (-toward_eye).to_array().map(f64::from)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_view_projection_maps_the_rays_to_pixels_and_gives_back_its_camera() {
+        let (lo, hi) = ([2.0, 2.0, 2.0], [20.0, 23.0, 21.0]);
+        for perspective in [false, true] {
+            let camera = Camera { azimuth: 40.0, elevation: -20.0, perspective };
+            let u = CameraUniform::orbit(&camera, lo, hi, 96, 64);
+            let vp = u.view_projection(perspective);
+            let v = |a: [f32; 4]| Vec3::from_slice(&a[..3]);
+            // Points along the ray of NDC (sx, sy) project to (sx, sy), at
+            // depths in 0..1 inside the box.
+            for (sx, sy) in [(0.0, 0.0), (1.0, 1.0), (-0.5, 0.25)] {
+                for t in [5.0, 20.0, 40.0] {
+                    let p = if perspective {
+                        v(u.eye) + t * (v(u.forward) + sx * v(u.right) + sy * v(u.up)).normalize()
+                    } else {
+                        v(u.eye) + sx * v(u.right) + sy * v(u.up) + t * v(u.forward)
+                    };
+                    let ndc = vp.project_point3(p);
+                    assert!((ndc.x - sx).abs() < 1e-5 && (ndc.y - sy).abs() < 1e-5, "{perspective}: {ndc}");
+                }
+            }
+            for i in 0..8 {
+                let corner = Vec3::new(
+                    if i & 1 == 0 { lo[0] } else { hi[0] },
+                    if i & 2 == 0 { lo[1] } else { hi[1] },
+                    if i & 4 == 0 { lo[2] } else { hi[2] },
+                );
+                let z = vp.project_point3(corner).z;
+                assert!(z > 0.0 && z < 1.0, "{perspective}: corner {i} at depth {z}");
+            }
+            let (back, p) = CameraUniform::from_view_projection(vp, lo, hi);
+            assert_eq!(p, perspective);
+            for (a, b) in [(u.eye, back.eye), (u.forward, back.forward), (u.right, back.right), (u.up, back.up)] {
+                assert!((v(a) - v(b)).length() <= 1e-4 * v(a).length().max(1.0), "{perspective}: {a:?} vs {b:?}");
+            }
+        }
+    }
+}

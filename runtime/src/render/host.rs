@@ -85,3 +85,38 @@ impl HostInput {
 }
 
 use bytemuck::Zeroable as _;
+
+#[cfg(test)]
+mod tests {
+    use crate::render::iso::{raycast_shader_with, HitMode};
+    use boxforge::derive::Derivation;
+    use boxforge::emit::Layout;
+
+    /// (group, binding, kind) of a shader's bindings.
+    fn table(source: &str) -> Vec<(u32, u32, String)> {
+        boxforge::validate::bindings_of_wgsl(source).unwrap().into_iter().map(|b| (b.group, b.binding, b.kind)).collect()
+    }
+
+    #[test]
+    fn only_the_native_variant_declares_the_host_depth_and_its_uniform_matches() {
+        let d = Derivation::new(&boxforge::spec::catalog::get("bcc7").unwrap()).unwrap();
+        let module = crate::render::dvr::filter_module(&d, Layout::Embedded).unwrap();
+        let host = [(1, 6, "uniform buffer".to_string()), (1, 7, "texture_depth_2d".to_string())];
+        for hit in [HitMode::Step, HitMode::Exact] {
+            let plain = raycast_shader_with(&d, Layout::Embedded, hit, (1, [1, 1, 1]), "t", false).unwrap();
+            let native = raycast_shader_with(&d, Layout::Embedded, hit, (1, [1, 1, 1]), "t", true).unwrap();
+            let (p, n) = (table(&plain), table(&native));
+            assert!(host.iter().all(|h| n.contains(h) && !p.contains(h)), "{hit:?}: {n:?}");
+            assert_eq!(n.len(), p.len() + 2);
+        }
+        let dvr = |host_depth| format!("{module}\n{}", crate::render::dvr::dvr_template_with("bcc7", false, host_depth));
+        let (p, n) = (table(&dvr(false)), table(&dvr(true)));
+        assert!(host.iter().all(|h| n.contains(h) && !p.contains(h)), "dvr: {n:?}");
+        // The uniform block: a mat4x4<f32> and a vec4<f32>, 80 bytes.
+        let source = dvr(true);
+        let body = source.split("struct bcc7_HostDepth {").nth(1).unwrap().split('}').next().unwrap();
+        let fields: Vec<&str> = body.lines().map(str::trim).filter(|l| !l.is_empty() && !l.starts_with("//")).collect();
+        assert_eq!(fields, ["inv_view_proj: mat4x4<f32>,", "mode: vec4<f32>,"]);
+        assert_eq!(std::mem::size_of::<super::HostUniform>(), 64 + 16);
+    }
+}

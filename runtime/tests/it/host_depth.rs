@@ -262,8 +262,7 @@ fn dvr_composites_up_to_the_hosts_plane() {
     let h = host();
     let tf = TransferFunction::preset("marschner-lobb");
     let mut r = DvrRenderer::new(h.gpu, &h.d, &h.volume, &tf, DvrLook::default()).unwrap();
-    let probe = IsoRenderer::new(h.gpu, &h.d, &h.volume, IsoOptions::default()).unwrap();
-    let (lo, hi) = probe.valid_box();
+    let (lo, hi) = r.valid_box();
     let camera = Camera::default();
     let c = CameraUniform::orbit(&camera, lo, hi, SIZE, SIZE);
     let vp = camera.view_projection(lo, hi, SIZE, SIZE);
@@ -306,21 +305,27 @@ fn dvr_composites_up_to_the_hosts_plane() {
     let n = (forward + 0.6 * v3(c.right).normalize() + 0.3 * v3(c.up).normalize()).normalize();
     let cut = frame(&mut r, Some(&host_depth(h.gpu, vp, Some(quad(centre, n, half)))));
     let tp = plane_t(&c, false, vp, centre, n);
-    let (mut same, mut less) = (0, 0);
+    let (mut same, mut less, mut empty) = (0, 0, 0);
     for i in 0..cut.len() {
         assert!((0..4).all(|k| cut[i][k] <= far[i][k]), "pixel {i}: {:?} over {:?} without the plane", cut[i], far[i]);
-        let (_, _, _, exit) = ray(&c, false, i as u32 % SIZE, i as u32 / SIZE);
+        let (_, _, entry, exit) = ray(&c, false, i as u32 % SIZE, i as u32 / SIZE);
         match tp[i] {
             Some(t) if t > exit + 0.01 => {
                 assert_eq!(cut[i], far[i], "pixel {i}: the plane at {t} lies behind the exit at {exit}");
-                same += 1;
+                same += (far[i][3] > 0) as usize;
+            }
+            Some(t) if t < entry - 0.01 => {
+                assert_eq!(cut[i], [0; 4], "pixel {i}: the plane at {t} lies in front of the entry at {entry}");
+                empty += (far[i][3] > 0) as usize;
             }
             None => {}
             _ => less += (cut[i][3] < far[i][3]) as usize,
         }
     }
-    eprintln!("DVR: {same} pixels with the plane behind the exit unchanged, {less} with less opacity");
-    assert!(same > 300 && less > 1000, "the plane cuts the volume ({same} same, {less} less)");
+    eprintln!(
+        "DVR: of the pixels the volume covers, {same} with the plane behind the exit unchanged, {empty} with it in front of the entry empty, {less} with less opacity"
+    );
+    assert!(same > 300 && empty > 300 && less > 1000, "the plane cuts the volume ({same} same, {empty} empty, {less} less)");
     // Back to frames without a host depth.
     assert!(frame(&mut r, None) == plain);
 }

@@ -212,6 +212,14 @@ impl DvrRenderer {
         Ok(())
     }
 
+    /// The valid box the rays run through, in sample-index coordinates
+    /// (as [`crate::render::IsoRenderer::valid_box`]).
+    pub fn valid_box(&self) -> ([f32; 3], [f32; 3]) {
+        let o = crate::render::iso::RenderOptions { block: self.look.block, ..Default::default() };
+        let c = crate::render::iso::ray_params_for(self.radius, self.dims, &o).camera;
+        ([c.box_lo[0], c.box_lo[1], c.box_lo[2]], [c.box_hi[0], c.box_hi[1], c.box_hi[2]])
+    }
+
     /// The last frame's image buffer (one RGBA8 word per pixel, rows from
     /// the top; premultiplied colour and opacity in a frame with a host depth).
     pub fn image_buffer(&self) -> Option<&wgpu::Buffer> {
