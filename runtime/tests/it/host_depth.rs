@@ -7,6 +7,7 @@ use boxforge::derive::Derivation;
 use boxforge::emit::Layout;
 use boxforge_runtime::gpu::Gpu;
 use boxforge_runtime::render::camera::CameraUniform;
+use boxforge_runtime::render::iso::HitMode;
 use boxforge_runtime::render::dvr::transfer::TransferFunction;
 use boxforge_runtime::render::{
     Camera, DvrLook, DvrRenderer, FrameCamera, HostDepth, IsoOptions, IsoRenderer, RenderError, Target,
@@ -195,9 +196,9 @@ fn iso_frame(h: &Host, r: &mut IsoRenderer, (camera, depth): Frame<'_>) -> (Vec<
 #[test]
 fn iso_hits_stop_at_the_hosts_plane_and_keep_the_ones_in_front() {
     let h = host();
-    let mut r = IsoRenderer::new(h.gpu, &h.d, &h.volume, IsoOptions::default()).unwrap();
-    let (lo, hi) = r.valid_box();
-    for perspective in [false, true] {
+    for (hit, perspective) in [(HitMode::Step, false), (HitMode::Step, true), (HitMode::Exact, false)] {
+        let mut r = IsoRenderer::new(h.gpu, &h.d, &h.volume, IsoOptions { hit, ..IsoOptions::default() }).unwrap();
+        let (lo, hi) = r.valid_box();
         let camera = Camera { perspective, ..Camera::default() };
         let c = CameraUniform::orbit(&camera, lo, hi, SIZE, SIZE);
         let vp = camera.view_projection(lo, hi, SIZE, SIZE);
@@ -230,7 +231,7 @@ fn iso_hits_stop_at_the_hosts_plane_and_keep_the_ones_in_front() {
                 cut += 1;
             }
         }
-        eprintln!("perspective {perspective}: {kept} hits in front of the plane kept, {cut} behind it removed");
+        eprintln!("{hit:?}, perspective {perspective}: {kept} hits in front of the plane kept, {cut} behind it removed");
         assert!(kept > 300 && cut > 300, "the plane cuts the surface ({kept} kept, {cut} cut)");
         // Back to frames without a host depth: the first image again.
         assert_eq!(iso_frame(&h, &mut r, (camera.into(), None)), (image0, t0));
