@@ -104,7 +104,11 @@ fn over_a_host_pass_with_nothing_drawn_the_frame_is_the_same() {
     // The background's sRGB bytes, decoded (the target is sRGB).
     let linear = |b: u8| {
         let c = b as f64 / 255.0;
-        if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
+        if c <= 0.04045 {
+            c / 12.92
+        } else {
+            ((c + 0.055) / 1.055).powf(2.4)
+        }
     };
     let clear = wgpu::Color { r: linear(MISS[0]), g: linear(MISS[1]), b: linear(MISS[2]), a: 1.0 };
     scene.frame_over_host(&view, SIZE, &camera(), clear).unwrap();

@@ -15,7 +15,9 @@ pub enum RenderError {
     #[error("the host depth texture is {format:?}, which the ray casters do not read: pass a Depth32Float, Depth24Plus or Depth16Unorm texture (no stencil aspect)")]
     HostDepthFormat { format: wgpu::TextureFormat },
     /// A host depth texture the ray casters cannot bind.
-    #[error("the host depth texture has usage {usage:?} without TEXTURE_BINDING: create it with TEXTURE_BINDING as well")]
+    #[error(
+        "the host depth texture has usage {usage:?} without TEXTURE_BINDING: create it with TEXTURE_BINDING as well"
+    )]
     HostDepthUsage { usage: wgpu::TextureUsages },
     /// A host depth texture whose texels are not the target's pixels.
     #[error("the host depth texture is {}x{} with {samples} sample(s), the target {}x{}: pass a single-sample depth texture of the target's size", depth[0], depth[1], target[0], target[1])]

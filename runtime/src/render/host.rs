@@ -94,7 +94,11 @@ mod tests {
 
     /// (group, binding, kind) of a shader's bindings.
     fn table(source: &str) -> Vec<(u32, u32, String)> {
-        boxforge::validate::bindings_of_wgsl(source).unwrap().into_iter().map(|b| (b.group, b.binding, b.kind)).collect()
+        boxforge::validate::bindings_of_wgsl(source)
+            .unwrap()
+            .into_iter()
+            .map(|b| (b.group, b.binding, b.kind))
+            .collect()
     }
 
     #[test]
@@ -109,7 +113,8 @@ mod tests {
             assert!(host.iter().all(|h| n.contains(h) && !p.contains(h)), "{hit:?}: {n:?}");
             assert_eq!(n.len(), p.len() + 2);
         }
-        let dvr = |host_depth| format!("{module}\n{}", crate::render::dvr::dvr_template_with("bcc7", false, host_depth));
+        let dvr =
+            |host_depth| format!("{module}\n{}", crate::render::dvr::dvr_template_with("bcc7", false, host_depth));
         let (p, n) = (table(&dvr(false)), table(&dvr(true)));
         assert!(host.iter().all(|h| n.contains(h) && !p.contains(h)), "dvr: {n:?}");
         // The uniform block: a mat4x4<f32> and a vec4<f32>, 80 bytes.

@@ -7,8 +7,8 @@ use boxforge::derive::Derivation;
 use boxforge::emit::Layout;
 use boxforge_runtime::gpu::Gpu;
 use boxforge_runtime::render::camera::CameraUniform;
-use boxforge_runtime::render::iso::HitMode;
 use boxforge_runtime::render::dvr::transfer::TransferFunction;
+use boxforge_runtime::render::iso::HitMode;
 use boxforge_runtime::render::{
     Camera, DvrLook, DvrRenderer, FrameCamera, HostDepth, IsoOptions, IsoRenderer, RenderError, Target,
 };
@@ -227,11 +227,18 @@ fn iso_hits_stop_at_the_hosts_plane_and_keep_the_ones_in_front() {
                 assert_eq!((t1[i], image1[i]), (t0[i], image0[i]), "pixel {i}: a hit in front of the plane changed");
                 kept += 1;
             } else if t0[i] > tp + eps {
-                assert_eq!((t1[i], image1[i]), (-1.0, 0), "pixel {i}: the hit at {} is behind the plane at {tp}", t0[i]);
+                assert_eq!(
+                    (t1[i], image1[i]),
+                    (-1.0, 0),
+                    "pixel {i}: the hit at {} is behind the plane at {tp}",
+                    t0[i]
+                );
                 cut += 1;
             }
         }
-        eprintln!("{hit:?}, perspective {perspective}: {kept} hits in front of the plane kept, {cut} behind it removed");
+        eprintln!(
+            "{hit:?}, perspective {perspective}: {kept} hits in front of the plane kept, {cut} behind it removed"
+        );
         assert!(kept > 300 && cut > 300, "the plane cuts the surface ({kept} kept, {cut} cut)");
         // Back to frames without a host depth: the first image again.
         assert_eq!(iso_frame(&h, &mut r, (camera.into(), None)), (image0, t0));
@@ -296,7 +303,8 @@ fn dvr_composites_up_to_the_hosts_plane() {
     let radius = 0.5 * (Vec3::from(hi) - Vec3::from(lo)).length();
     let half = 3.0 * radius;
     // A plane behind the whole volume changes no pixel.
-    let behind = frame(&mut r, Some(&host_depth(h.gpu, vp, Some(quad(centre + 1.5 * radius * forward, forward, half)))));
+    let behind =
+        frame(&mut r, Some(&host_depth(h.gpu, vp, Some(quad(centre + 1.5 * radius * forward, forward, half)))));
     assert!(behind == far, "a plane behind the volume changed the frame");
     // A plane in front of it leaves nothing to composite.
     let front = frame(&mut r, Some(&host_depth(h.gpu, vp, Some(quad(centre - 1.2 * radius * forward, forward, half)))));
@@ -326,7 +334,10 @@ fn dvr_composites_up_to_the_hosts_plane() {
     eprintln!(
         "DVR: of the pixels the volume covers, {same} with the plane behind the exit unchanged, {empty} with it in front of the entry empty, {less} with less opacity"
     );
-    assert!(same > 300 && empty > 300 && less > 1000, "the plane cuts the volume ({same} same, {empty} empty, {less} less)");
+    assert!(
+        same > 300 && empty > 300 && less > 1000,
+        "the plane cuts the volume ({same} same, {empty} empty, {less} less)"
+    );
     // Back to frames without a host depth.
     assert!(frame(&mut r, None) == plain);
 }

@@ -232,13 +232,21 @@ impl DvrRenderer {
         let buffers = |image| [(0, &self.params), (1, image), (2, &self.flags), (3, &self.tf), (4, &self.preint)];
         if let Some((f, bound)) = self.frame.as_mut().filter(|(f, _)| (f.width, f.height) == (width, height)) {
             if bound.as_ref() != wanted {
-                f.caster = self.host.bind_group(&self.gpu, "dvr", &self.caster_layout, &self.bindings, &buffers(&f.image), view);
+                f.caster = self.host.bind_group(
+                    &self.gpu,
+                    "dvr",
+                    &self.caster_layout,
+                    &self.bindings,
+                    &buffers(&f.image),
+                    view,
+                );
                 *bound = wanted.cloned();
             }
             return Ok(());
         }
         let image = image_buffer(&self.gpu, "dvr image", width, height)?;
-        let caster = self.host.bind_group(&self.gpu, "dvr", &self.caster_layout, &self.bindings, &buffers(&image), view);
+        let caster =
+            self.host.bind_group(&self.gpu, "dvr", &self.caster_layout, &self.bindings, &buffers(&image), view);
         self.frame = Some((FrameImage::new(width, height, image, caster), wanted.cloned()));
         Ok(())
     }

@@ -80,8 +80,14 @@ impl IsoRenderer {
     ) -> Result<IsoRenderer, RenderError> {
         let name = d.filter.name.clone();
         let fine = fine_grid(volume.dims, options.block);
-        let source =
-            raycast_shader_with(d, volume.layout, options.hit, fine, "boxforge_runtime::render::iso::IsoRenderer", true)?;
+        let source = raycast_shader_with(
+            d,
+            volume.layout,
+            options.hit,
+            fine,
+            "boxforge_runtime::render::iso::IsoRenderer",
+            true,
+        )?;
         let shader = gpu.compile(&format!("{name}.raycast.wgsl"), &source)?;
         let bounds = block_bounds(gpu, &shader, &name, volume, volume.dims, options.block)?;
         let empty_blocks = bounds.iter().filter(|b| options.iso < b[0] || options.iso > b[1]).count() as f64
@@ -220,7 +226,8 @@ impl IsoRenderer {
     /// The valid box the rays run through (the filter's support inside the
     /// volume), in sample-index coordinates: where a host places the volume.
     pub fn valid_box(&self) -> ([f32; 3], [f32; 3]) {
-        let p = ray_params_for(self.radius, self.dims, &RenderOptions { block: self.options.block, ..Default::default() });
+        let p =
+            ray_params_for(self.radius, self.dims, &RenderOptions { block: self.options.block, ..Default::default() });
         (box3(p.camera.box_lo), box3(p.camera.box_hi))
     }
 
@@ -241,10 +248,12 @@ impl IsoRenderer {
     fn ensure_image(&mut self, width: u32, height: u32, host: Option<&HostDepth<'_>>) -> Result<(), RenderError> {
         let wanted = host.map(|d| d.view);
         let view = self.host.view(host);
-        if let Some((f, depth, bound)) = self.frame.as_mut().filter(|(f, _, _)| (f.width, f.height) == (width, height)) {
+        if let Some((f, depth, bound)) = self.frame.as_mut().filter(|(f, _, _)| (f.width, f.height) == (width, height))
+        {
             if bound.as_ref() != wanted {
                 let buffers = caster_buffers(&self.params, &f.image, &self.blocks, depth, self.fine.as_ref());
-                f.caster = self.host.bind_group(&self.gpu, "raycast", &self.caster_layout, &self.bindings, &buffers, view);
+                f.caster =
+                    self.host.bind_group(&self.gpu, "raycast", &self.caster_layout, &self.bindings, &buffers, view);
                 *bound = wanted.cloned();
             }
             return Ok(());
