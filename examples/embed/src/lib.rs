@@ -10,7 +10,7 @@
 use boxforge::derive::Derivation;
 use boxforge_runtime::gpu::Gpu;
 use boxforge_runtime::render::dvr::transfer::TransferFunction;
-use boxforge_runtime::render::{Camera, DvrLook, DvrRenderer, IsoOptions, IsoRenderer, Target};
+use boxforge_runtime::render::{Camera, DvrLook, DvrRenderer, HostDepth, IsoOptions, IsoRenderer, Target};
 use boxforge_runtime::volume::{DeviceVolume, LatticeVolume};
 
 /// The host's colour format: a window surface's usual one.
@@ -76,6 +76,59 @@ impl Scene {
         } else {
             self.renderer.encode(&mut encoder, &target, camera).map_err(|e| e.to_string())?;
         }
+        self.gpu.queue.submit([encoder.finish()]);
+        Ok(())
+    }
+}
+
+impl Scene {
+    /// The isosurface frame over the host's own pass: the target cleared to
+    /// `clear` (linear, as wgpu takes clear colours) and a depth texture
+    /// (`Depth32Float`, `TEXTURE_BINDING`) cleared to the far plane, which
+    /// a host's opaque geometry would have written; the rays stop at it
+    /// and the surface is drawn over the host's colour.
+    pub fn frame_over_host(
+        &mut self,
+        view: &wgpu::TextureView,
+        size: u32,
+        camera: &Camera,
+        clear: wgpu::Color,
+    ) -> Result<(), String> {
+        let device = &self.gpu.device;
+        let depth = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("host depth"),
+            size: wgpu::Extent3d { width: size, height: size, depth_or_array_layers: 1 },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: wgpu::TextureFormat::Depth32Float,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+            view_formats: &[],
+        });
+        let depth_view = depth.create_view(&Default::default());
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("host pass") });
+        // The host's opaque pass (nothing drawn here but the clears).
+        drop(encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("host pass"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations { load: wgpu::LoadOp::Clear(clear), store: wgpu::StoreOp::Store },
+            })],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: &depth_view,
+                depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Store }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        }));
+        let target = Target { view, format: FORMAT, width: size, height: size };
+        self.renderer
+            .encode_with_depth(&mut encoder, &target, (*camera).into(), Some(HostDepth { view: &depth_view }))
+            .map_err(|e| e.to_string())?;
         self.gpu.queue.submit([encoder.finish()]);
         Ok(())
     }

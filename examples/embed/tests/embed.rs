@@ -91,6 +91,34 @@ fn a_host_device_renders_boxforge_renders_images_into_a_surface_like_target() {
 }
 
 #[test]
+fn over_a_host_pass_with_nothing_drawn_the_frame_is_the_same() {
+    // A host depth at the far plane stops no ray: over the host's colour
+    // cleared to the ray caster's background the frame is the plain one
+    // (hits opaque, misses transparent over the clear).
+    let (device, queue) = host_device().unwrap_or_else(|e| panic!("{e}"));
+    let mut scene = Scene::new(device.clone(), queue.clone()).unwrap_or_else(|e| panic!("{e}"));
+    let readable = texture(&device, SIZE, wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC);
+    let view = readable.create_view(&Default::default());
+    scene.frame(&view, SIZE, &camera(), false).unwrap();
+    let plain = read_rgba(&device, &queue, &readable, SIZE);
+    // The background's sRGB bytes, decoded (the target is sRGB).
+    let linear = |b: u8| {
+        let c = b as f64 / 255.0;
+        if c <= 0.04045 {
+            c / 12.92
+        } else {
+            ((c + 0.055) / 1.055).powf(2.4)
+        }
+    };
+    let clear = wgpu::Color { r: linear(MISS[0]), g: linear(MISS[1]), b: linear(MISS[2]), a: 1.0 };
+    scene.frame_over_host(&view, SIZE, &camera(), clear).unwrap();
+    let over = read_rgba(&device, &queue, &readable, SIZE);
+    let differ = plain.iter().zip(&over).filter(|(a, b)| a != b).count();
+    assert!(plain.chunks(4).filter(|p| p[..3] != MISS).count() * 5 >= (SIZE * SIZE) as usize);
+    assert_eq!(differ, 0, "{differ} bytes differ from the frame without a host depth");
+}
+
+#[test]
 fn frames_after_the_first_create_no_buffer_texture_or_shader_module() {
     let (device, queue) = host_device().unwrap_or_else(|e| panic!("{e}"));
     let mut scene = Scene::new(device.clone(), queue.clone()).unwrap_or_else(|e| panic!("{e}"));

@@ -82,6 +82,21 @@ pub fn texture_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
     }
 }
 
+/// A compute-stage `texture_depth_2d` binding (a host's depth buffer, read
+/// with textureLoad).
+pub fn depth_texture_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Depth,
+            view_dimension: wgpu::TextureViewDimension::D2,
+            multisampled: false,
+        },
+        count: None,
+    }
+}
+
 /// A compute-stage `texture_storage_3d<r32uint, write>` binding.
 pub fn storage_texture_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
@@ -113,6 +128,7 @@ pub fn layout_entries_from(
             "storage buffer read" => Ok(storage_entry(b.binding, true)),
             "storage buffer read_write" => Ok(storage_entry(b.binding, false)),
             "uniform buffer" => Ok(uniform_entry(b.binding)),
+            "texture_depth_2d" => Ok(depth_texture_entry(b.binding)),
             other => Err(crate::gpu::GpuError::Runtime(format!(
                 "binding {} ({}) of group {group} is a {other}, which this layout builder does not lay out",
                 b.binding, b.name

@@ -26,6 +26,17 @@ pub enum RenderError {
     /// A hand-written scheme given samples in a layout its loads do not read.
     #[error("{scheme} reads the embedded layout (one 3D texture of the samples); upload the volume in that layout")]
     SchemeLayout { scheme: &'static str },
+    /// A host depth texture ([`crate::render::camera::HostDepth`]) of a format the ray casters cannot read as depth.
+    #[error("the host depth texture is {format:?}, which the ray casters do not read: pass a Depth32Float, Depth24Plus or Depth16Unorm texture (no stencil aspect)")]
+    HostDepthFormat { format: wgpu::TextureFormat },
+    /// A host depth texture the ray casters cannot bind.
+    #[error(
+        "the host depth texture has usage {usage:?} without TEXTURE_BINDING: create it with TEXTURE_BINDING as well"
+    )]
+    HostDepthUsage { usage: wgpu::TextureUsages },
+    /// A host depth texture whose texels are not the target's pixels.
+    #[error("the host depth texture is {}x{} with {samples} sample(s), the target {}x{}: pass a single-sample depth texture of the target's size", depth[0], depth[1], target[0], target[1])]
+    HostDepthSize { depth: [u32; 2], samples: u32, target: [u32; 2] },
 }
 
 impl RenderError {

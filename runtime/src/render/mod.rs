@@ -8,13 +8,14 @@ pub mod blocks;
 pub mod camera;
 pub mod dvr;
 mod error;
+mod host;
 pub mod iso;
 pub mod perm;
 pub mod present;
 pub mod pt;
 pub mod schemes;
 
-pub use camera::{Camera, Target};
+pub use camera::{Camera, FrameCamera, HostDepth, Target, HOST_DEPTH_FORMATS};
 pub use dvr::{DvrLook, DvrRenderer};
 pub use error::RenderError;
 pub use iso::renderer::{IsoOptions, IsoRenderer};

@@ -2,7 +2,11 @@
 //! into a host's colour target with a full-screen triangle: the last step of
 //! every renderer's `encode`. The image holds display (sRGB) bytes; into an
 //! sRGB target they are decoded to linear, so that the target stores the
-//! same bytes the PNG of `boxforge render` holds.
+//! same bytes the PNG of `boxforge render` holds. A frame with a host depth
+//! is drawn over the target's contents instead (premultiplied colour and
+//! alpha, blended One / OneMinusSrcAlpha; into sRGB targets the hardware
+//! blends the decoded values, so a translucent pixel is close to, not
+//! exactly, the blend of the display bytes).
 
 use crate::gpu::{Gpu, GpuError};
 use crate::render::RenderError;
@@ -35,12 +39,13 @@ fn present_fs(@builtin(position) pos: vec4<f32>) -> @location(0) vec4<f32> {
 }
 "#;
 
-/// The present pipeline, one per target format, built on first use.
+/// The present pipeline, one per target format and blending (opaque, or
+/// over the target's contents), built on first use.
 pub struct Presenter {
     shader: wgpu::ShaderModule,
     layout: wgpu::BindGroupLayout,
     pipeline_layout: wgpu::PipelineLayout,
-    pipelines: HashMap<wgpu::TextureFormat, wgpu::RenderPipeline>,
+    pipelines: HashMap<(wgpu::TextureFormat, bool), wgpu::RenderPipeline>,
 }
 
 impl Presenter {
@@ -82,7 +87,13 @@ impl Presenter {
 
     /// Makes sure the pipeline for `format` exists (outside any pass).
     pub fn prepare(&mut self, gpu: &Gpu, format: wgpu::TextureFormat) -> Result<(), GpuError> {
-        if self.pipelines.contains_key(&format) {
+        self.prepare_blend(gpu, format, false)
+    }
+
+    /// [`Presenter::prepare`] for drawing opaque (`over` false) or with
+    /// premultiplied alpha over the target's contents.
+    pub fn prepare_blend(&mut self, gpu: &Gpu, format: wgpu::TextureFormat, over: bool) -> Result<(), GpuError> {
+        if self.pipelines.contains_key(&(format, over)) {
             return Ok(());
         }
         let pipeline = gpu.checked(&format!("present pipeline for {format:?}"), || {
@@ -101,7 +112,7 @@ impl Presenter {
                     compilation_options: Default::default(),
                     targets: &[Some(wgpu::ColorTargetState {
                         format,
-                        blend: None,
+                        blend: over.then_some(wgpu::BlendState::PREMULTIPLIED_ALPHA_BLENDING),
                         write_mask: wgpu::ColorWrites::ALL,
                     })],
                 }),
@@ -112,7 +123,7 @@ impl Presenter {
                 cache: None,
             })
         })?;
-        self.pipelines.insert(format, pipeline);
+        self.pipelines.insert((format, over), pipeline);
         Ok(())
     }
 
@@ -124,14 +135,29 @@ impl Presenter {
         format: wgpu::TextureFormat,
         bind: &wgpu::BindGroup,
     ) {
-        let Some(pipeline) = self.pipelines.get(&format) else { return };
+        self.encode_blend(encoder, view, format, bind, false)
+    }
+
+    /// [`Presenter::encode`], opaque over a cleared target (`over` false) or
+    /// with premultiplied alpha over its contents (after
+    /// [`Presenter::prepare_blend`] with the same `over`).
+    pub fn encode_blend(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        view: &wgpu::TextureView,
+        format: wgpu::TextureFormat,
+        bind: &wgpu::BindGroup,
+        over: bool,
+    ) {
+        let Some(pipeline) = self.pipelines.get(&(format, over)) else { return };
+        let load = if over { wgpu::LoadOp::Load } else { wgpu::LoadOp::Clear(wgpu::Color::BLACK) };
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("present"),
             color_attachments: &[Some(wgpu::RenderPassColorAttachment {
                 view,
                 depth_slice: None,
                 resolve_target: None,
-                ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::BLACK), store: wgpu::StoreOp::Store },
+                ops: wgpu::Operations { load, store: wgpu::StoreOp::Store },
             })],
             depth_stencil_attachment: None,
             timestamp_writes: None,
@@ -164,6 +190,7 @@ impl FrameImage {
     /// Records the ray caster (`pipeline`, the samples at group 0, this
     /// image's caster group at 1; 8x8 workgroups over the image) and the
     /// draw of the image into `view` of `format`.
+    #[allow(dead_code)] // the opaque frame of renderers without a host depth (PERM, PT, schemes)
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn encode(
         &mut self,
@@ -174,8 +201,24 @@ impl FrameImage {
         view: &wgpu::TextureView,
         format: wgpu::TextureFormat,
     ) -> Result<(), GpuError> {
+        self.encode_over(gpu, presenter, encoder, (label, pipeline, samples), view, format, false)
+    }
+
+    /// [`FrameImage::encode`], the image drawn opaque (`over` false) or with
+    /// premultiplied alpha over the target's contents.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn encode_over(
+        &mut self,
+        gpu: &Gpu,
+        presenter: &mut Presenter,
+        encoder: &mut wgpu::CommandEncoder,
+        (label, pipeline, samples): (&str, &wgpu::ComputePipeline, &wgpu::BindGroup),
+        view: &wgpu::TextureView,
+        format: wgpu::TextureFormat,
+        over: bool,
+    ) -> Result<(), GpuError> {
+        presenter.prepare_blend(gpu, format, over)?;
         if self.present.as_ref().map(|(f, _)| *f) != Some(format) {
-            presenter.prepare(gpu, format)?;
             self.present = Some((format, presenter.bind(gpu, &self.image, self.width, format)));
         }
         {
@@ -187,7 +230,7 @@ impl FrameImage {
             pass.dispatch_workgroups(self.width.div_ceil(8), self.height.div_ceil(8), 1);
         }
         let present = &self.present.as_ref().expect("prepared above").1;
-        presenter.encode(encoder, view, format, present);
+        presenter.encode_blend(encoder, view, format, present, over);
         Ok(())
     }
 }

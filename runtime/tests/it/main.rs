@@ -11,6 +11,7 @@ mod dvr;
 mod frames;
 mod gpu_verify;
 mod hit;
+mod host_depth;
 mod mattausch_references;
 mod perm;
 mod prefilter;

@@ -127,9 +127,19 @@ impl DvrOptions {
 /// supplies (a cache built on top of DVR), instead of calling
 /// `<f>_eval_grad` (the only difference in the text).
 pub(crate) fn dvr_template(name: &str, lookup: bool) -> String {
+    dvr_template_with(name, lookup, false)
+}
+
+/// [`dvr_template`], with `host_depth` the host-depth input of
+/// [`DvrRenderer`] (group 1, bindings 6 and 7; without it the text is the
+/// one the web viewer, PERM and the schemes have always had).
+pub(crate) fn dvr_template_with(name: &str, lookup: bool, host_depth: bool) -> String {
     let mut env = minijinja::Environment::new();
     env.add_template("dvr", include_str!("../../../../templates/dvr.wgsl.j2")).expect("template");
-    env.get_template("dvr").unwrap().render(minijinja::context! { name => name, perm => lookup }).expect("render")
+    env.get_template("dvr")
+        .unwrap()
+        .render(minijinja::context! { name => name, perm => lookup, host_depth => host_depth })
+        .expect("render")
 }
 
 /// The emitted module with the DVR template appended.

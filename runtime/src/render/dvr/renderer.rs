@@ -4,15 +4,21 @@
 //! and pre-integration uploaded), then [`DvrRenderer::encode`] records a
 //! frame into the host's encoder and colour target. Frames after the first
 //! at one size create no buffer, texture or shader module.
+//!
+//! [`DvrRenderer::encode_with_depth`] takes a host's camera matrix and
+//! depth buffer ([`HostDepth`]): each ray composites up to the host's
+//! opaque geometry (the segment it cuts weighted by the fraction in front)
+//! and the frame is premultiplied colour and opacity over the host's colour.
 
 use super::params::{dvr_params_for, DvrParams};
 use super::skip::{empty_flags, skip_flags};
 use super::transfer::TransferFunction;
-use super::{shader_source, DvrOptions};
-use crate::gpu::binding::{entries_for, layout_entries_from};
+use super::{dvr_template_with, filter_module, DvrOptions};
+use crate::gpu::binding::layout_entries_from;
 use crate::gpu::{Gpu, GpuError};
 use crate::render::blocks::block_bounds;
-use crate::render::camera::{Camera, Target};
+use crate::render::camera::{Camera, FrameCamera, HostDepth, Target};
+use crate::render::host::HostInput;
 use crate::render::present::{image_buffer, FrameImage, Presenter};
 use crate::render::RenderError;
 use crate::volume::DeviceVolume;
@@ -60,7 +66,10 @@ pub struct DvrRenderer {
     tf: wgpu::Buffer,
     preint: wgpu::Buffer,
     presenter: Presenter,
-    frame: Option<FrameImage>,
+    host: HostInput,
+    /// The image of the current size and the host depth its bind group
+    /// holds (`None`: the dummy).
+    frame: Option<(FrameImage, Option<wgpu::TextureView>)>,
 }
 
 impl DvrRenderer {
@@ -74,9 +83,9 @@ impl DvrRenderer {
         look: DvrLook,
     ) -> Result<DvrRenderer, RenderError> {
         let name = &d.filter.name;
-        let source = shader_source(d, volume.layout)?;
+        let source = format!("{}\n{}", filter_module(d, volume.layout)?, dvr_template_with(name, false, true));
         let shader = gpu.compile(&format!("{name}.dvr.wgsl"), &source)?;
-        // Group 1 (parameters, image, skipping flags, tables) as the template declares it.
+        // Group 1 (parameters, image, skipping flags, tables, host depth) as the template declares it.
         let bindings = boxforge::validate::bindings_of_wgsl(&source)
             .map_err(|message| GpuError::Shader { label: format!("{name}.dvr.wgsl"), message })?;
         let bounds = block_bounds(gpu, &shader, name, volume, volume.dims, look.block)?;
@@ -121,6 +130,7 @@ impl DvrRenderer {
             preint: gpu.storage_buffer("dvr preint", bytemuck::cast_slice(&pi_entries), false),
             table,
             presenter: Presenter::new(gpu)?,
+            host: HostInput::new(gpu),
             frame: None,
         })
     }
@@ -138,16 +148,39 @@ impl DvrRenderer {
         target: &Target<'_>,
         camera: &Camera,
     ) -> Result<(), RenderError> {
+        self.encode_with_depth(encoder, target, FrameCamera::Orbit(*camera), None)
+    }
+
+    /// [`DvrRenderer::encode`] with the rays of `camera` (an orbit, or a
+    /// host's view-projection) and, with `depth`, composited only up to the
+    /// host's opaque geometry and drawn over the target's contents (the
+    /// host's colour) as premultiplied colour and opacity. `depth` must have
+    /// been drawn with `camera`'s view-projection; see [`HostDepth`] for the
+    /// formats. Without `depth` the frame is [`DvrRenderer::encode`]'s.
+    pub fn encode_with_depth(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        target: &Target<'_>,
+        camera: FrameCamera,
+        depth: Option<HostDepth<'_>>,
+    ) -> Result<(), RenderError> {
         if target.width == 0 || target.height == 0 {
             return Err(RenderError::EmptyTarget);
         }
-        self.ensure_image(target.width, target.height)?;
+        if let Some(d) = &depth {
+            d.check(target.width, target.height)?;
+        }
+        self.ensure_image(target.width, target.height, depth.as_ref())?;
+        let orbit = match camera {
+            FrameCamera::Orbit(c) => c,
+            FrameCamera::ViewProj(_) => Camera::default(),
+        };
         let o = DvrOptions {
             width: target.width,
             height: target.height,
-            azimuth: camera.azimuth,
-            elevation: camera.elevation,
-            perspective: camera.perspective,
+            azimuth: orbit.azimuth,
+            elevation: orbit.elevation,
+            perspective: orbit.perspective,
             skip: self.look.skip,
             preintegrate: self.look.preintegrate,
             step: self.look.step,
@@ -155,35 +188,66 @@ impl DvrRenderer {
             termination: self.look.termination,
             ..DvrOptions::default()
         };
-        let params = dvr_params_for(self.radius, self.dims, &self.table, self.pi_size, &o);
+        let mut params = dvr_params_for(self.radius, self.dims, &self.table, self.pi_size, &o);
+        let xyz = |a: [f32; 4]| [a[0], a[1], a[2]];
+        let (uniform, perspective, view_proj) =
+            camera.resolve(xyz(params.camera.box_lo), xyz(params.camera.box_hi), target.width, target.height);
+        params.camera = uniform;
+        params.mode[0] = perspective as i32 as f32;
         if self.last_params.map(|p| bytemuck::bytes_of(&p) != bytemuck::bytes_of(&params)).unwrap_or(true) {
             self.gpu.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
             self.last_params = Some(params);
         }
-        let frame = self.frame.as_mut().expect("allocated above");
-        frame.encode(
+        self.host.write(&self.gpu, view_proj, depth.is_some());
+        let (frame, _) = self.frame.as_mut().expect("allocated above");
+        frame.encode_over(
             &self.gpu,
             &mut self.presenter,
             encoder,
             ("dvr", &self.pipeline, &self.samples),
             target.view,
             target.format,
+            depth.is_some(),
         )?;
         Ok(())
     }
 
-    fn ensure_image(&mut self, width: u32, height: u32) -> Result<(), RenderError> {
-        if self.frame.as_ref().is_some_and(|f| (f.width, f.height) == (width, height)) {
+    /// The valid box the rays run through, in sample-index coordinates
+    /// (as [`crate::render::IsoRenderer::valid_box`]).
+    pub fn valid_box(&self) -> ([f32; 3], [f32; 3]) {
+        let o = crate::render::iso::RenderOptions { block: self.look.block, ..Default::default() };
+        let c = crate::render::iso::ray_params_for(self.radius, self.dims, &o).camera;
+        ([c.box_lo[0], c.box_lo[1], c.box_lo[2]], [c.box_hi[0], c.box_hi[1], c.box_hi[2]])
+    }
+
+    /// The last frame's image buffer (one RGBA8 word per pixel, rows from
+    /// the top; premultiplied colour and opacity in a frame with a host depth).
+    pub fn image_buffer(&self) -> Option<&wgpu::Buffer> {
+        self.frame.as_ref().map(|(f, _)| &f.image)
+    }
+
+    fn ensure_image(&mut self, width: u32, height: u32, host: Option<&HostDepth<'_>>) -> Result<(), RenderError> {
+        let wanted = host.map(|d| d.view);
+        let view = self.host.view(host);
+        let buffers = |image| [(0, &self.params), (1, image), (2, &self.flags), (3, &self.tf), (4, &self.preint)];
+        if let Some((f, bound)) = self.frame.as_mut().filter(|(f, _)| (f.width, f.height) == (width, height)) {
+            if bound.as_ref() != wanted {
+                f.caster = self.host.bind_group(
+                    &self.gpu,
+                    "dvr",
+                    &self.caster_layout,
+                    &self.bindings,
+                    &buffers(&f.image),
+                    view,
+                );
+                *bound = wanted.cloned();
+            }
             return Ok(());
         }
         let image = image_buffer(&self.gpu, "dvr image", width, height)?;
-        let resources = [(0, &self.params), (1, &image), (2, &self.flags), (3, &self.tf), (4, &self.preint)];
-        let caster = self.gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("dvr"),
-            layout: &self.caster_layout,
-            entries: &entries_for(&self.bindings, 1, &resources),
-        });
-        self.frame = Some(FrameImage::new(width, height, image, caster));
+        let caster =
+            self.host.bind_group(&self.gpu, "dvr", &self.caster_layout, &self.bindings, &buffers(&image), view);
+        self.frame = Some((FrameImage::new(width, height, image, caster), wanted.cloned()));
         Ok(())
     }
 }

@@ -186,11 +186,24 @@ pub fn raycast_shader(
     fine: (i32, [i32; 3]),
     command: &str,
 ) -> Result<String, GpuError> {
+    raycast_shader_with(d, layout, hit, fine, command, false)
+}
+
+/// [`raycast_shader`], with `host_depth` the host-depth input of
+/// [`renderer::IsoRenderer`] (group 1, bindings 6 and 7).
+pub(crate) fn raycast_shader_with(
+    d: &Derivation,
+    layout: Layout,
+    hit: HitMode,
+    fine: (i32, [i32; 3]),
+    command: &str,
+    host_depth: bool,
+) -> Result<String, GpuError> {
     let module = emit(d, &EmitOptions { layout, command: command.into(), ..Default::default() })
         .map_err(|e| GpuError::Runtime(e.to_string()))?;
     let plan = HitPlan::new(d);
     let exact = (hit == HitMode::Exact).then_some((&plan, fine.0, fine.1));
-    Ok(format!("{}\n{}", module.source, template::template(&d.filter.name, exact)))
+    Ok(format!("{}\n{}", module.source, template::template(&d.filter.name, exact, host_depth)))
 }
 
 /// The fine grid of the exact walk for a volume of `dims` and coarse blocks

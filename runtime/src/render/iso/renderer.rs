@@ -4,13 +4,19 @@
 //! colour target. A frame after the first at the same size creates no
 //! shader module, buffer or texture and writes no texture; it writes the
 //! ray parameters only when the camera changed.
+//!
+//! [`IsoRenderer::encode_with_depth`] takes a host's camera matrix and
+//! depth buffer ([`HostDepth`]): rays stop at the host's opaque geometry
+//! (no hit behind it; hits in front are the ones without it, bit for bit)
+//! and the surface is drawn over the host's colour, misses transparent.
 
-use super::{fine_grid, ray_params_for, raycast_shader, Frame, HitMode, RayParams, RenderOptions};
-use crate::gpu::binding::{entries_for, layout_entries_from};
+use super::{fine_grid, ray_params_for, raycast_shader_with, Frame, HitMode, RayParams, RenderOptions};
+use crate::gpu::binding::layout_entries_from;
 use crate::gpu::timing::timed_banded_frames;
 use crate::gpu::{Gpu, GpuError};
 use crate::render::blocks::{self, block_bounds};
-use crate::render::camera::{Camera, Target};
+use crate::render::camera::{Camera, FrameCamera, HostDepth, Target};
+use crate::render::host::HostInput;
 use crate::render::present::{image_buffer, FrameImage, Presenter};
 use crate::render::RenderError;
 use crate::volume::DeviceVolume;
@@ -56,8 +62,10 @@ pub struct IsoRenderer {
     fine: Option<wgpu::Buffer>,
     empty_blocks: f64,
     presenter: Presenter,
-    /// The image of the current size, and the hit depths beside it.
-    frame: Option<(FrameImage, wgpu::Buffer)>,
+    host: HostInput,
+    /// The image of the current size, the hit depths beside it, and the
+    /// host depth its bind group holds (`None`: the dummy).
+    frame: Option<(FrameImage, wgpu::Buffer, Option<wgpu::TextureView>)>,
 }
 
 impl IsoRenderer {
@@ -72,7 +80,14 @@ impl IsoRenderer {
     ) -> Result<IsoRenderer, RenderError> {
         let name = d.filter.name.clone();
         let fine = fine_grid(volume.dims, options.block);
-        let source = raycast_shader(d, volume.layout, options.hit, fine, "boxforge_runtime::render::iso::IsoRenderer")?;
+        let source = raycast_shader_with(
+            d,
+            volume.layout,
+            options.hit,
+            fine,
+            "boxforge_runtime::render::iso::IsoRenderer",
+            true,
+        )?;
         let shader = gpu.compile(&format!("{name}.raycast.wgsl"), &source)?;
         let bounds = block_bounds(gpu, &shader, &name, volume, volume.dims, options.block)?;
         let empty_blocks = bounds.iter().filter(|b| options.iso < b[0] || options.iso > b[1]).count() as f64
@@ -88,7 +103,7 @@ impl IsoRenderer {
             label: Some("samples"),
             entries: &volume.layout_entries(0, wgpu::ShaderStages::COMPUTE),
         });
-        // Group 1 (parameters, image, block grids, depth) as the template declares it.
+        // Group 1 (parameters, image, block grids, depth, host depth) as the template declares it.
         let bindings = boxforge::validate::bindings_of_wgsl(&source)
             .map_err(|message| GpuError::Shader { label: format!("{name}.raycast.wgsl"), message })?;
         let caster_layout = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -119,6 +134,7 @@ impl IsoRenderer {
             fine,
             empty_blocks,
             presenter: Presenter::new(gpu)?,
+            host: HostInput::new(gpu),
             frame: None,
         })
     }
@@ -142,73 +158,111 @@ impl IsoRenderer {
         target: &Target<'_>,
         camera: &Camera,
     ) -> Result<(), RenderError> {
+        self.encode_with_depth(encoder, target, FrameCamera::Orbit(*camera), None)
+    }
+
+    /// [`IsoRenderer::encode`] with the rays of `camera` (an orbit, or a
+    /// host's view-projection) and, with `depth`, stopped at the host's
+    /// opaque geometry: no hit is reported behind it, and the frame is drawn
+    /// over the target's contents (the host's colour) with misses
+    /// transparent. `depth` must have been drawn with `camera`'s
+    /// view-projection ([`crate::render::Camera::view_projection`] for an
+    /// orbit); see [`HostDepth`] for the formats. Without `depth` the frame
+    /// is [`IsoRenderer::encode`]'s.
+    pub fn encode_with_depth(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        target: &Target<'_>,
+        camera: FrameCamera,
+        depth: Option<HostDepth<'_>>,
+    ) -> Result<(), RenderError> {
         if target.width == 0 || target.height == 0 {
             return Err(RenderError::EmptyTarget);
         }
-        self.ensure_image(target.width, target.height)?;
+        if let Some(d) = &depth {
+            d.check(target.width, target.height)?;
+        }
+        self.ensure_image(target.width, target.height, depth.as_ref())?;
+        let orbit = match camera {
+            FrameCamera::Orbit(c) => c,
+            FrameCamera::ViewProj(_) => Camera::default(),
+        };
         let o = RenderOptions {
             iso: self.options.iso,
             width: target.width,
             height: target.height,
-            azimuth: camera.azimuth,
-            elevation: camera.elevation,
-            perspective: camera.perspective,
+            azimuth: orbit.azimuth,
+            elevation: orbit.elevation,
+            perspective: orbit.perspective,
             skip: self.options.skip,
             step: self.options.step,
             block: self.options.block,
             hit: self.options.hit,
             ..RenderOptions::default()
         };
-        let params = ray_params_for(self.radius, self.dims, &o);
+        let mut params = ray_params_for(self.radius, self.dims, &o);
+        let (lo, hi) = (box3(params.camera.box_lo), box3(params.camera.box_hi));
+        let (uniform, perspective, view_proj) = camera.resolve(lo, hi, target.width, target.height);
+        params.camera = uniform;
+        params.shade[2] = perspective as i32 as f32;
         if self.last_params.map(|p| bytemuck::bytes_of(&p) != bytemuck::bytes_of(&params)).unwrap_or(true) {
             self.gpu.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
             self.last_params = Some(params);
         }
-        let (frame, _) = self.frame.as_mut().expect("allocated above");
-        frame.encode(
+        self.host.write(&self.gpu, view_proj, depth.is_some());
+        let (frame, _, _) = self.frame.as_mut().expect("allocated above");
+        frame.encode_over(
             &self.gpu,
             &mut self.presenter,
             encoder,
             ("raycast", &self.pipeline, &self.samples),
             target.view,
             target.format,
+            depth.is_some(),
         )?;
         Ok(())
+    }
+
+    /// The valid box the rays run through (the filter's support inside the
+    /// volume), in sample-index coordinates: where a host places the volume.
+    pub fn valid_box(&self) -> ([f32; 3], [f32; 3]) {
+        let p =
+            ray_params_for(self.radius, self.dims, &RenderOptions { block: self.options.block, ..Default::default() });
+        (box3(p.camera.box_lo), box3(p.camera.box_hi))
     }
 
     /// The buffer of the last frame's hit depths (ray parameter t per pixel,
     /// -1 for a miss), which a host may bind or copy.
     pub fn depth_buffer(&self) -> Option<&wgpu::Buffer> {
-        self.frame.as_ref().map(|(_, depth)| depth)
+        self.frame.as_ref().map(|(_, depth, _)| depth)
     }
 
     /// The last frame's image buffer (one RGBA8 word per pixel, rows from the top).
     pub fn image_buffer(&self) -> Option<&wgpu::Buffer> {
-        self.frame.as_ref().map(|(f, _)| &f.image)
+        self.frame.as_ref().map(|(f, _, _)| &f.image)
     }
 
     /// The image and depth buffers and the caster's bind group for a
-    /// `width` x `height` frame (kept while the size stays).
-    fn ensure_image(&mut self, width: u32, height: u32) -> Result<(), RenderError> {
-        if self.frame.as_ref().is_some_and(|(f, _)| (f.width, f.height) == (width, height)) {
+    /// `width` x `height` frame (kept while the size stays; the bind group
+    /// is rebuilt when the host's depth view changes).
+    fn ensure_image(&mut self, width: u32, height: u32, host: Option<&HostDepth<'_>>) -> Result<(), RenderError> {
+        let wanted = host.map(|d| d.view);
+        let view = self.host.view(host);
+        if let Some((f, depth, bound)) = self.frame.as_mut().filter(|(f, _, _)| (f.width, f.height) == (width, height))
+        {
+            if bound.as_ref() != wanted {
+                let buffers = caster_buffers(&self.params, &f.image, &self.blocks, depth, self.fine.as_ref());
+                f.caster =
+                    self.host.bind_group(&self.gpu, "raycast", &self.caster_layout, &self.bindings, &buffers, view);
+                *bound = wanted.cloned();
+            }
             return Ok(());
         }
-        let gpu = &self.gpu;
-        let image = image_buffer(gpu, "image", width, height)?;
-        let depth = image_buffer(gpu, "depth", width, height)?;
-        let resources = [
-            (0, &self.params),
-            (1, &image),
-            (2, &self.blocks),
-            (3, &depth),
-            (4, self.fine.as_ref().unwrap_or(&self.blocks)),
-        ];
-        let caster = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("raycast"),
-            layout: &self.caster_layout,
-            entries: &entries_for(&self.bindings, 1, &resources),
-        });
-        self.frame = Some((FrameImage::new(width, height, image, caster), depth));
+        let image = image_buffer(&self.gpu, "image", width, height)?;
+        let depth = image_buffer(&self.gpu, "depth", width, height)?;
+        let buffers = caster_buffers(&self.params, &image, &self.blocks, &depth, self.fine.as_ref());
+        let caster = self.host.bind_group(&self.gpu, "raycast", &self.caster_layout, &self.bindings, &buffers, view);
+        self.frame = Some((FrameImage::new(width, height, image, caster), depth, wanted.cloned()));
         Ok(())
     }
 
@@ -216,9 +270,10 @@ impl IsoRenderer {
     /// frames of `o.width` x `o.height` (in bands of rows with a progress
     /// bar when `o.progress`), read back as RGBA8 and hit depths.
     pub(crate) fn timed_frames(&mut self, o: &RenderOptions) -> Result<(Frame, Vec<f32>), RenderError> {
-        self.ensure_image(o.width, o.height)?;
+        self.ensure_image(o.width, o.height, None)?;
+        self.host.write(&self.gpu, glam::Mat4::IDENTITY, false);
         let params = ray_params_for(self.radius, self.dims, o);
-        let (frame, depth) = self.frame.as_ref().expect("allocated above");
+        let (frame, depth, _) = self.frame.as_ref().expect("allocated above");
         let times = timed_banded_frames(
             &self.gpu,
             &self.pipeline,
@@ -236,6 +291,23 @@ impl IsoRenderer {
         let ms_per_frame = times[times.len() / 2];
         Ok((Frame { width: o.width, height: o.height, rgba, ms_per_frame, empty_blocks: self.empty_blocks }, depth))
     }
+}
+
+/// The caster's buffers by binding (parameters, image, blocks, hit depths,
+/// fine blocks: the coarse ones stand in for the step walk, which declares none).
+fn caster_buffers<'a>(
+    params: &'a wgpu::Buffer,
+    image: &'a wgpu::Buffer,
+    blocks: &'a wgpu::Buffer,
+    depth: &'a wgpu::Buffer,
+    fine: Option<&'a wgpu::Buffer>,
+) -> [(u32, &'a wgpu::Buffer); 5] {
+    [(0, params), (1, image), (2, blocks), (3, depth), (4, fine.unwrap_or(blocks))]
+}
+
+/// The xyz of a uniform vector.
+fn box3(a: [f32; 4]) -> [f32; 3] {
+    [a[0], a[1], a[2]]
 }
 
 use bytemuck::Zeroable as _;

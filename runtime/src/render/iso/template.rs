@@ -157,8 +157,11 @@ fn hit_context(plan: &HitPlan, name: &str) -> minijinja::Value {
 }
 
 /// The ray caster for this filter: the fixed-step walk, or with `exact`
-/// the exact walk over a fine bounds grid of `fine` = (edge, blocks per axis).
-pub(crate) fn template(name: &str, exact: Option<(&HitPlan, i32, [i32; 3])>) -> String {
+/// the exact walk over a fine bounds grid of `fine` = (edge, blocks per axis);
+/// with `host_depth` the host-depth input of the native per-frame renderer
+/// (bindings 6 and 7; without it the text is the one the web viewer and
+/// reports have always had).
+pub(crate) fn template(name: &str, exact: Option<(&HitPlan, i32, [i32; 3])>, host_depth: bool) -> String {
     let env = {
         let mut env = minijinja::Environment::new();
         env.add_template("raycast", include_str!("../../../../templates/raycast.wgsl.j2")).expect("template");
@@ -173,8 +176,9 @@ pub(crate) fn template(name: &str, exact: Option<(&HitPlan, i32, [i32; 3])>) -> 
             fine_blocks_y => blocks[1],
             fine_blocks_z => blocks[2],
             hit => hit_context(plan, name),
+            host_depth => host_depth,
         },
-        None => minijinja::context! { name => name, exact => false },
+        None => minijinja::context! { name => name, exact => false, host_depth => host_depth },
     };
     env.get_template("raycast").unwrap().render(ctx).expect("render")
 }
