@@ -10,6 +10,8 @@
 //!   PERM cache, projected tetrahedra and the literature's hand-written schemes.
 //! * [`verify`], [`prefilter`]: point evaluation against the exact evaluator,
 //!   and the quasi-interpolation prefilter on the device.
+//! * [`targets`]: the other shading languages' translations run as emitted
+//!   (SPIR-V, GLSL, HLSL on the device by passthrough; GLSL on an OpenGL driver).
 //! * [`bench`](mod@bench), `pictures`, `web` (features): what the `boxforge` CLI measures,
 //!   draws and serves.
 
@@ -23,6 +25,7 @@ pub mod progress;
 pub mod references;
 pub mod render;
 pub mod scene;
+pub mod targets;
 pub mod verify;
 pub mod volume;
 #[cfg(feature = "web")]

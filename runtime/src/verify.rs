@@ -10,6 +10,7 @@ use boxforge::emit::{emit, Bounds, EmitOptions, EvalForm, FetchMode, Layout, Var
 use serde::Serialize;
 
 pub mod kernel;
+pub mod target;
 
 /// Why a verification (or an evaluation on the device) could not run.
 #[derive(Debug, thiserror::Error)]
@@ -23,6 +24,9 @@ pub enum VerifyError {
     NotThreeD { filter: String, dim: usize },
     #[error("the points count must be at least 1")]
     NoPoints,
+    /// A translation that could not be run (`verify --target`).
+    #[error(transparent)]
+    Target(#[from] crate::targets::TargetError),
 }
 
 #[derive(Clone, Debug, Serialize)]

@@ -20,6 +20,8 @@ pub enum GpuError {
     Shader { label: String, message: String },
     #[error("GPU error: {0}")]
     Runtime(String),
+    #[error("the device lacks wgpu's {feature} feature, which {needed_for} needs; {fix}")]
+    MissingFeature { feature: &'static str, needed_for: String, fix: &'static str },
 }
 
 /// A device and its queue with what the runtime needs to know of them.
@@ -44,6 +46,12 @@ impl Gpu {
     /// on Vulkan and GL; the library asks for none of its own): Vulkan first,
     /// the others when it has no adapter, or those `WGPU_BACKEND` names.
     pub fn new(adapter_name: Option<&str>) -> Result<Gpu, GpuError> {
+        Gpu::with_backends(adapter_name, wgpu::Backends::from_env())
+    }
+
+    /// [`Gpu::new`] on the given backends (e.g. `wgpu::Backends::GL` to
+    /// run WGSL through wgpu's GL backend); `None`: Vulkan first, as `new`.
+    pub fn with_backends(adapter_name: Option<&str>, backends: Option<wgpu::Backends>) -> Result<Gpu, GpuError> {
         // WGPU_BACKEND (e.g. "gl") picks backends; otherwise Vulkan, and the
         // other enabled backends only when Vulkan has no adapter.
         let enumerate = |backends: wgpu::Backends| {
@@ -53,7 +61,7 @@ impl Gpu {
             });
             pollster::block_on(instance.enumerate_adapters(backends))
         };
-        let adapters = match wgpu::Backends::from_env() {
+        let adapters = match backends {
             Some(backends) => enumerate(backends),
             None => {
                 let vulkan = enumerate(wgpu::Backends::VULKAN);
@@ -99,6 +107,11 @@ impl Gpu {
         // reference); requested only when the adapter has it.
         if adapter.features().contains(wgpu::Features::FLOAT32_FILTERABLE) {
             features |= wgpu::Features::FLOAT32_FILTERABLE;
+        }
+        // SPIR-V handed to the driver as is (`verify --target`: the emitted
+        // or glslang-compiled binaries run without a translation of ours).
+        if adapter.features().contains(wgpu::Features::PASSTHROUGH_SHADERS) {
+            features |= wgpu::Features::PASSTHROUGH_SHADERS;
         }
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("boxforge"),
@@ -173,6 +186,41 @@ impl Gpu {
             label: Some(label),
             source: wgpu::ShaderSource::Wgsl(source.into()),
         });
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(GpuError::Shader { label: label.into(), message: e.to_string() });
+        }
+        Ok(module)
+    }
+
+    /// A shader module from SPIR-V words, handed to the driver untouched
+    /// (wgpu's `PASSTHROUGH_SHADERS`: no naga, no validation of ours, so the
+    /// pipeline layout must be explicit). `entry` and its workgroup size name
+    /// the one compute entry point used.
+    pub fn spirv_passthrough(
+        &self,
+        label: &str,
+        words: &[u32],
+        entry: &str,
+        workgroup: (u32, u32, u32),
+    ) -> Result<wgpu::ShaderModule, GpuError> {
+        if !self.device.features().contains(wgpu::Features::PASSTHROUGH_SHADERS) {
+            return Err(GpuError::MissingFeature {
+                feature: "PASSTHROUGH_SHADERS",
+                needed_for: format!("running the SPIR-V of {label} as it is"),
+                fix: "use a Vulkan adapter (lavapipe offers it) or the WGSL target",
+            });
+        }
+        let entry_points = [wgpu::PassthroughShaderEntryPoint { name: entry.into(), workgroup_size: workgroup }];
+        let desc = wgpu::ShaderModuleDescriptorPassthrough {
+            label: Some(label),
+            entry_points: std::borrow::Cow::Borrowed(&entry_points),
+            spirv: Some(std::borrow::Cow::Borrowed(words)),
+            ..Default::default()
+        };
+        let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        // SAFETY: the words are a SPIR-V module that spirv-val accepted (the
+        // callers validate it first); a bad module is the driver's to reject.
+        let module = unsafe { self.device.create_shader_module_passthrough(desc) };
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(GpuError::Shader { label: label.into(), message: e.to_string() });
         }

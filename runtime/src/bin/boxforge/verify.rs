@@ -1,7 +1,7 @@
 //! `boxforge verify`: a filter's eval / eval_grad on the GPU against the
 //! exact evaluator; exit 1 when it fails.
 
-use crate::common::{Failure, FetchArg, FormArg, LayoutArg, VariantArg};
+use crate::common::{Failure, FetchArg, FormArg, LayoutArg, TargetArg, VariantArg};
 use crate::request;
 use boxforge::derive::Derivation;
 use boxforge::emit::{Bounds, EvalForm, FetchMode, Layout, Variant};
@@ -36,6 +36,23 @@ pub struct VerifyArgs {
     adapter: Option<String>,
     #[arg(long)]
     json: bool,
+    /// Shading language to run: the WGSL module (default), or its
+    /// translation run as emitted: spirv (the eval kernel binary), glsl and
+    /// hlsl (the library with boxforge's entry point, compiled by glslang)
+    /// on Vulkan by passthrough, or glsl as text on an OpenGL driver.
+    #[arg(long, value_enum, default_value = "wgsl")]
+    target: TargetArg,
+    /// Where it runs: the Vulkan device, or OpenGL (WGSL through wgpu's GL
+    /// backend; GLSL through the driver's own compiler, EGL without a window).
+    #[arg(long, value_enum, default_value = "vulkan")]
+    backend: BackendArg,
+}
+
+/// `--backend`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum BackendArg {
+    Vulkan,
+    Gl,
 }
 
 /// `--bounds`.
@@ -55,11 +72,26 @@ impl From<BoundsArg> for Bounds {
 }
 
 pub fn run(a: VerifyArgs) -> Result<(), Failure> {
-    let VerifyArgs { filter, layout, variant, form, bounds, fetch, points, seed, adapter, json } = a;
+    let VerifyArgs { filter, layout, variant, form, bounds, fetch, points, seed, adapter, json, target, backend } = a;
     request::check_points(points)?;
     let f = spec::resolve(&filter)?;
     let d = Derivation::new(&f)?;
-    let gpu = Gpu::new(adapter.as_deref()).map_err(|e| Failure(e.to_string()))?;
+    if target != TargetArg::Wgsl {
+        return run_target(
+            &d,
+            layout,
+            variant,
+            target,
+            backend,
+            points,
+            seed,
+            adapter.as_deref(),
+            json,
+            (form, bounds, fetch),
+        );
+    }
+    let backends = (backend == BackendArg::Gl).then_some(wgpu::Backends::GL);
+    let gpu = Gpu::with_backends(adapter.as_deref(), backends).map_err(|e| Failure(e.to_string()))?;
     let layout = Layout::from(layout);
     let variant = Variant::from(variant);
     let form = form.map(EvalForm::from);
@@ -86,6 +118,69 @@ pub fn run(a: VerifyArgs) -> Result<(), Failure> {
             r.form.name(),
             r.bounds.name(),
             r.fetch.name(),
+            r.adapter,
+            r.points,
+            r.max_abs_err,
+            r.data_range,
+            r.max_rel_grad_err,
+            r.near_knot_points,
+            r.accepted_other_side,
+            if r.passed { "PASSED" } else { "FAILED" }
+        );
+    }
+    if r.passed {
+        Ok(())
+    } else {
+        std::process::exit(1)
+    }
+}
+
+/// `verify --target X`: a translation, run as emitted.
+#[allow(clippy::too_many_arguments)]
+fn run_target(
+    d: &Derivation,
+    layout: LayoutArg,
+    variant: VariantArg,
+    target: TargetArg,
+    backend: BackendArg,
+    points: usize,
+    seed: u64,
+    adapter: Option<&str>,
+    json: bool,
+    (form, bounds, fetch): (Option<FormArg>, BoundsArg, FetchArg),
+) -> Result<(), Failure> {
+    use boxforge_runtime::targets::Runner;
+    if form.is_some() || bounds != BoundsArg::Clamp || fetch != FetchArg::Exact {
+        return Err(Failure(
+            "--target runs the filter's own form with clamped exact fetches: leave out --form, --bounds and --fetch"
+                .into(),
+        ));
+    }
+    let target = boxforge::back::Target::from(target);
+    let runner = match backend {
+        BackendArg::Vulkan => Runner::Vulkan,
+        BackendArg::Gl => Runner::Gl,
+    };
+    let gpu = match runner {
+        Runner::Vulkan => Some(Gpu::new(adapter).map_err(|e| Failure(e.to_string()))?),
+        Runner::Gl => None,
+    };
+    let layout = Layout::from(layout);
+    let variant = Variant::from(variant);
+    let t =
+        boxforge_runtime::verify::target::verify_target(gpu.as_ref(), d, layout, variant, target, runner, points, seed)
+            .map_err(|e| Failure(e.to_string()))?;
+    let r = &t.report;
+    if json {
+        outln!("{}", serde_json::to_string(&t).unwrap());
+    } else {
+        outln!(
+            "{} ({}, {}, form {}) in {} run by {}: {} points, max |value error| {:.3e} (range {:.3}), max relative gradient error {:.3e}, {} near a knot plane ({} matched the piece across it): {}",
+            r.filter,
+            layout.name(),
+            variant.name(),
+            r.form.name(),
+            target.language(),
             r.adapter,
             r.points,
             r.max_abs_err,

@@ -1,0 +1,110 @@
+//! `verify --target`: a translation into another shading language, run as
+//! emitted ([`crate::targets`]), against the exact evaluator with the same
+//! points, tolerances and near-knot rule as the WGSL module.
+
+use super::{data_range, random_points, random_volume, Tally, VerifyError, VerifyReport, POINTS_PER_DISPATCH};
+use crate::gpu::Gpu;
+use crate::targets::{Runner, TargetEvaluator};
+use crate::volume::DeviceVolume;
+use boxforge::back::{translate, Target, TranslateOptions};
+use boxforge::derive::Derivation;
+use boxforge::emit::{emit, Bounds, EmitOptions, FetchMode, Layout, Variant};
+use serde::Serialize;
+
+/// A [`VerifyReport`] of a translation: which language, where it ran, and
+/// what compiled it (in `report.adapter`).
+#[derive(Clone, Debug, Serialize)]
+pub struct TargetVerifyReport {
+    pub target: Target,
+    pub runner: Runner,
+    #[serde(flatten)]
+    pub report: VerifyReport,
+}
+
+/// Emits `d` in `layout`/`variant` (exact clamped fetches), translates it
+/// into `target`, runs it with `runner` (the wgpu device `gpu` for
+/// [`Runner::Vulkan`]; an OpenGL context of its own for [`Runner::Gl`]) at
+/// `points` random points of a random volume, and checks every value and
+/// gradient against the exact evaluator.
+#[allow(clippy::too_many_arguments)]
+pub fn verify_target(
+    gpu: Option<&Gpu>,
+    d: &Derivation,
+    layout: Layout,
+    variant: Variant,
+    target: Target,
+    runner: Runner,
+    points: usize,
+    seed: u64,
+) -> Result<TargetVerifyReport, VerifyError> {
+    if d.facts.dim != 3 {
+        return Err(VerifyError::NotThreeD { filter: d.filter.name.clone(), dim: d.facts.dim });
+    }
+    if points == 0 {
+        return Err(VerifyError::NoPoints);
+    }
+    let options = EmitOptions {
+        layout,
+        variant,
+        kernels: false,
+        command: format!("boxforge verify --target {target}"),
+        ..Default::default()
+    };
+    let module = emit(d, &options).map_err(|e| VerifyError::Emit(e.to_string()))?;
+    let stem = module.file_name.trim_end_matches(".wgsl").to_string();
+    let translated = translate(&module.source, &stem, target, &TranslateOptions::default())
+        .map_err(crate::targets::TargetError::from)?;
+    let vol = random_volume(d, seed);
+    let (evaluator, dv) = match (runner, gpu) {
+        (Runner::Vulkan, Some(gpu)) => {
+            let dv = DeviceVolume::new(gpu, &vol, layout)?;
+            (TargetEvaluator::vulkan(gpu, &translated, &dv)?, Some(dv))
+        }
+        (Runner::Vulkan, None) => return Err(VerifyError::Emit("a Vulkan run needs a device".into())),
+        #[cfg(feature = "gl-run")]
+        (Runner::Gl, _) => (TargetEvaluator::gl(&translated, &vol, layout)?, None),
+        #[cfg(not(feature = "gl-run"))]
+        (Runner::Gl, _) => {
+            return Err(crate::targets::TargetError::Unsupported {
+                target,
+                runner: "gl",
+                why: "this build leaves out the GL runner (cargo feature gl-run)".into(),
+            }
+            .into())
+        }
+    };
+    let range = data_range(&vol);
+    let mut tally = Tally::new(range);
+    let mut done = 0;
+    let mut chunk_index = 0u64;
+    while done < points {
+        let count = (points - done).min(POINTS_PER_DISPATCH);
+        let chunk_seed = if chunk_index == 0 { seed } else { seed ^ chunk_index.wrapping_mul(0x9E37_79B9_7F4A_7C15) };
+        let pts = random_points(d, &vol, count, chunk_seed);
+        let (values, grads) = evaluator.eval(gpu, dv.as_ref(), &pts)?;
+        tally.check(d, &vol, &pts, &values, &grads);
+        done += count;
+        chunk_index += 1;
+    }
+    let passed = tally.passed();
+    Ok(TargetVerifyReport {
+        target,
+        runner,
+        report: VerifyReport {
+            filter: d.filter.name.clone(),
+            layout,
+            variant,
+            form: module.stats.form,
+            bounds: Bounds::Clamp,
+            fetch: FetchMode::Exact,
+            points,
+            max_abs_err: tally.max_abs,
+            max_rel_grad_err: tally.max_rel,
+            data_range: range,
+            near_knot_points: tally.near_knot_points,
+            accepted_other_side: tally.accepted_other_side,
+            passed,
+            adapter: evaluator.how.clone(),
+        },
+    })
+}
