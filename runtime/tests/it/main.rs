@@ -17,4 +17,5 @@ mod perm;
 mod prefilter;
 mod pt;
 mod render;
+mod targets_run;
 mod web;
