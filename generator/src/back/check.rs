@@ -75,7 +75,11 @@ fn check_text(t: &Translated, u: &Unit, text: &str) -> Result<(), BackError> {
             }
             TargetSlot::CombinedWith { texture } => !texture.is_empty() && !lines_with(code, texture).is_empty(),
             TargetSlot::Register { register, space } => {
-                let reg = if *space == 0 { format!("register({register})") } else { format!("register({register}, space{space})") };
+                let reg = if *space == 0 {
+                    format!("register({register})")
+                } else {
+                    format!("register({register}, space{space})")
+                };
                 lines.iter().any(|l| l.contains(&reg))
             }
             TargetSlot::MetalIndex { index } if u.role == Role::Kernels => {

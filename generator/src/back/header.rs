@@ -44,7 +44,9 @@ pub fn header(
     if !entry_points.is_empty() {
         let _ = writeln!(h, "// Compute entry points: {}.", entry_points.join(", "));
     }
-    if let Some((group, first)) = prepared.eval_kernel_slots.filter(|_| entry_points.iter().any(|e| e.ends_with("_eval_main"))) {
+    if let Some((group, first)) =
+        prepared.eval_kernel_slots.filter(|_| entry_points.iter().any(|e| e.ends_with("_eval_main")))
+    {
         let _ = writeln!(
             h,
             "// {f}_eval_main (added by boxforge) writes {f}_eval and {f}_eval_grad at every point of group {group} binding {first} into bindings {} and {}; {} invocations per workgroup, one point each.",

@@ -39,8 +39,8 @@ pub mod modules;
 pub mod spirv;
 pub mod text;
 
-pub use check::check_translated;
 use crate::validate::Binding;
+pub use check::check_translated;
 use serde::Serialize;
 
 /// A shading language boxforge writes.

@@ -205,8 +205,7 @@ fn {filter}_eval_main(@builtin(global_invocation_id) gid: vec3<u32>) {{
         let kernels = validate(kernels, &file)?;
         let kernel_bindings = with_purposes(&filter, bindings(&kernels.module, &kernels.info));
 
-        let wgsl_header: String =
-            wgsl.lines().take_while(|l| l.starts_with("//")).map(|l| format!("{l}\n")).collect();
+        let wgsl_header: String = wgsl.lines().take_while(|l| l.starts_with("//")).map(|l| format!("{l}\n")).collect();
         Ok(Prepared {
             stem: stem.to_string(),
             filter,

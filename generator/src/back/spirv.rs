@@ -38,9 +38,8 @@ pub fn translate(p: &Prepared) -> Result<Vec<Unit>, BackError> {
     for ep in p.kernel_entry_points() {
         let file = format!("{}.{}.spv", p.stem, p.kernel_short_name(&ep));
         let pipeline = spv::PipelineOptions { shader_stage: ShaderStage::Compute, entry_point: ep.clone() };
-        let words = spv::write_vec(&p.kernels.module, &p.kernels.info, &options, Some(&pipeline)).map_err(|e| {
-            BackError::Backend { file: file.clone(), target: Target::Spirv, message: e.to_string() }
-        })?;
+        let words = spv::write_vec(&p.kernels.module, &p.kernels.info, &options, Some(&pipeline))
+            .map_err(|e| BackError::Backend { file: file.clone(), target: Target::Spirv, message: e.to_string() })?;
         let bindings = p
             .bindings_of(&ep)
             .into_iter()
@@ -52,7 +51,11 @@ pub fn translate(p: &Prepared) -> Result<Vec<Unit>, BackError> {
             .collect();
         let functions = read(&words)
             .map(|m| {
-                p.public_functions.iter().filter(|f| m.functions.iter().any(|g| g.name.as_deref() == Some(f))).cloned().collect()
+                p.public_functions
+                    .iter()
+                    .filter(|f| m.functions.iter().any(|g| g.name.as_deref() == Some(f)))
+                    .cloned()
+                    .collect()
             })
             .unwrap_or_default();
         units.push(Unit {

@@ -198,11 +198,8 @@ fn hlsl_units(p: &Prepared) -> Result<Vec<Unit>, BackError> {
         });
     }
     let write = |v: &Validated, file: &str| -> Result<String, BackError> {
-        let mut options = hlsl::Options {
-            shader_model: hlsl::ShaderModel::V5_1,
-            fake_missing_bindings: false,
-            ..Default::default()
-        };
+        let mut options =
+            hlsl::Options { shader_model: hlsl::ShaderModel::V5_1, fake_missing_bindings: false, ..Default::default() };
         for (_, g) in v.module.global_variables.iter() {
             if let Some(rb) = &g.binding {
                 let space = u8::try_from(rb.group).map_err(|_| backend(file, target, "group beyond 255"))?;

@@ -80,7 +80,9 @@ fn every_catalog_module_translates_checks_and_compiles_in_every_target() {
                         if *target == Target::Hlsl && stem.ends_with(".linear") {
                             // naga's HLSL samplers need wgpu's DX12 sampler heap: refused, with the way out.
                             let e = translated.expect_err("hlsl with a sampler is refused");
-                            assert!(matches!(e, BackError::Unsupported { .. }) && e.to_string().contains("--fetch exact"));
+                            assert!(
+                                matches!(e, BackError::Unsupported { .. }) && e.to_string().contains("--fetch exact")
+                            );
                             out.push((*target, format!("{stem}.hlsl"), Outcome::NotCompilable { why: "refused" }));
                             continue;
                         }
@@ -225,7 +227,10 @@ fn translation_is_deterministic_and_names_the_command_and_bindings() {
     }
     let glsl = back::translate(&wgsl, "bcc7.embedded", Target::Glsl, &Default::default()).unwrap();
     let lib = glsl.units[0].code.text().unwrap();
-    assert!(lib.contains("//   binding 0: _group_0_binding_0_cs (WGSL @group(0) @binding(0) bcc7_volume: texture_3d<f32>)"), "{lib}");
+    assert!(
+        lib.contains("//   binding 0: _group_0_binding_0_cs (WGSL @group(0) @binding(0) bcc7_volume: texture_3d<f32>)"),
+        "{lib}"
+    );
     let hlsl = back::translate(&wgsl, "bcc7.embedded", Target::Hlsl, &Default::default()).unwrap();
     assert!(hlsl.units[0].code.text().unwrap().contains("//   register(t0, space0): bcc7_volume"));
 }

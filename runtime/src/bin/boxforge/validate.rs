@@ -62,7 +62,9 @@ fn compile_targets(
             };
             let by_text = if by.is_empty() { String::new() } else { format!(" by {by}") };
             lines.push(format!("  {:<8} {}: {verdict}{by_text}", target.name(), u.file_name));
-            json.push(serde_json::json!({"target": target.name(), "file": u.file_name, "verdict": verdict, "compiler": by}));
+            json.push(
+                serde_json::json!({"target": target.name(), "file": u.file_name, "verdict": verdict, "compiler": by}),
+            );
         }
     }
     (ok, lines, json)
@@ -90,7 +92,10 @@ pub fn run(a: ValidateArgs) -> Result<(), Failure> {
     let (targets_ok, target_lines, target_json) =
         if report.valid { compile_targets(&source, &file, &targets) } else { (targets.is_empty(), vec![], vec![]) };
     let compilers_run: Vec<String> = [
-        (targets.iter().any(|t| matches!(t, Target::Glsl | Target::GlslEs | Target::Hlsl)), compilers::glslang_version().map(|v| format!("glslangValidator {v}"))),
+        (
+            targets.iter().any(|t| matches!(t, Target::Glsl | Target::GlslEs | Target::Hlsl)),
+            compilers::glslang_version().map(|v| format!("glslangValidator {v}")),
+        ),
         (targets.contains(&Target::Spirv), compilers::spirv_val_version().map(|v| format!("spirv-val {v}"))),
     ]
     .into_iter()
