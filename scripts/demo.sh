@@ -7,5 +7,6 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 command -v cargo >/dev/null || { echo "error: cargo not found; install Rust from https://rustup.rs" >&2; exit 2; }
 . scripts/ensure-vulkan.sh
+. scripts/ensure-compilers.sh
 cargo build --release --locked -p boxforge-runtime
 ./target/release/boxforge demo --out out

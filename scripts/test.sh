@@ -16,6 +16,7 @@ case "${1:-}" in
 esac
 command -v cargo >/dev/null || { echo "error: cargo not found; install Rust from https://rustup.rs" >&2; exit 2; }
 . scripts/ensure-vulkan.sh
+. scripts/ensure-compilers.sh
 start=$SECONDS
 phase() {
     local name=$1; shift

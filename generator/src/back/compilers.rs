@@ -171,7 +171,7 @@ pub fn compile(t: &Translated, u: &Unit) -> Outcome {
             run(by, Command::new("glslangValidator").arg(&path), &dir)
         }
         (Code::Text(text), Target::Hlsl | Target::Spirv) => {
-            let Some(by) = glslang("HLSL front end: accepted by glslang, DXC not available") else {
+            let Some(by) = glslang("HLSL front end; DXC not available") else {
                 return missing_glslang;
             };
             let (source, entries) = if u.role == Role::Library {

@@ -56,7 +56,9 @@ pub fn header(
             f = prepared.filter,
         );
     }
-    if bindings.is_empty() {
+    if *role == Role::Manifest {
+        // Each binary's bindings follow, in its own section.
+    } else if bindings.is_empty() {
         let _ = writeln!(h, "// Bindings: none.");
     } else {
         let _ = writeln!(h, "// Bindings the host must provide:");

@@ -24,9 +24,10 @@
 //! the module and uses no resource of its own; the stub is cut from the
 //! text afterwards (GLSL also loses its `#version` and `local_size` lines,
 //! which belong to the including shader). The public names are kept (naga's
-//! namer leaves `<f>_eval` alone); [`check::check_translated`] proves it for
-//! every unit, and a filter name that a backend would rename (a GLSL `gl_`
-//! prefix, a reserved word) is refused with [`BackError::Renamed`].
+//! namer leaves `<f>_eval` alone: it only changes reserved words and names
+//! ending in a digit); [`check::check_translated`] proves it for every unit,
+//! and a translation in which a backend changed a public name is refused
+//! with [`BackError::Renamed`] rather than shipped with a mapping.
 //!
 //! Every text unit starts with a header: the WGSL header (which names the
 //! generating command), the language version, and every binding the host
@@ -240,8 +241,8 @@ pub struct Translated {
     pub units: Vec<Unit>,
 }
 
-/// Language versions of the translation. The defaults are the versions the
-/// compilers here check and [`Target::language`] names.
+/// Options of a translation. The language versions are fixed (the ones
+/// [`Target::language`] names and the compilers here check).
 #[derive(Clone, Debug, Default)]
 pub struct TranslateOptions {
     /// Leave out the eval kernel `<f>_eval_main` (SPIR-V then proves

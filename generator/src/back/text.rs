@@ -334,7 +334,16 @@ fn msl_units(p: &Prepared) -> Result<Vec<Unit>, BackError> {
     let (text, _) = msl::write_string(&p.kernels.module, &p.kernels.info, &options, &Default::default())
         .map_err(|e| backend(&file, target, e))?;
     let entry_points = p.kernel_entry_points();
-    let head = header(p, target, &Role::Kernels, &[], &entry_points, &bindings);
+    let mut head = header(p, target, &Role::Kernels, &[], &entry_points, &bindings);
+    if text.contains(&format!("[[buffer({METAL_SIZES_BUFFER})]]")) {
+        // naga's stand-in for arrayLength: the host passes the buffers' sizes.
+        head.insert_str(
+            head.len() - 1,
+            &format!(
+                "//   [[buffer({METAL_SIZES_BUFFER})]]: _buffer_sizes (naga's struct `_mslBufferSizes`, declared below: the byte size of each runtime-sized buffer), for the kernels that take it.\n"
+            ),
+        );
+    }
     units.push(Unit {
         file_name: file,
         role: Role::Kernels,
