@@ -45,7 +45,8 @@ use std::fmt::Write;
 pub enum Layout {
     /// Cartesian texture with the lattice embedded (|det G| texels per sample).
     Embedded,
-    /// One dense array per coset of 2Z^s in a storage buffer (one word per sample).
+    /// One dense grid per coset of 2Z^s, each a tile of one texture read with
+    /// `textureLoad` (one texel per sample).
     Packed,
 }
 
@@ -122,7 +123,7 @@ pub struct EmitOptions {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum FetchMode {
-    /// One exact `textureLoad` (or buffer read) per stencil sample.
+    /// One exact `textureLoad` per stencil sample.
     #[default]
     Exact,
     /// Hardware linear filtering: pairs of adjacent samples (box-spline
@@ -403,20 +404,27 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
     let swz: String = AXES[..s].concat();
     // Packed: the coset formula (for the header) and the mask of the pivot
     // axes, whose parity bits pick the coset's tile of the texture.
-    let (cosets, coset_formula, coset_mask) = match opts.layout {
-        Layout::Packed => {
-            let piv = coset_pivots(&d.filter.lattice)?;
-            let expr: Vec<String> = piv
-                .iter()
-                .enumerate()
-                .map(|(i, &p)| if i == 0 { format!("(j.{} & 1)", AXES[p]) } else { format!("((j.{} & 1) << {i}u)", AXES[p]) })
-                .collect();
-            let formula = if expr.is_empty() { "0".to_string() } else { expr.join(" + ") };
-            let mask: IVec = (0..s).map(|a| i64::from(piv.contains(&a))).collect();
-            (1usize << piv.len(), formula, sh.ivec(&mask))
-        }
-        Layout::Embedded => (0, String::new(), String::new()),
-    };
+    let (cosets, coset_formula, coset_mask) =
+        match opts.layout {
+            Layout::Packed => {
+                let piv = coset_pivots(&d.filter.lattice)?;
+                let expr: Vec<String> =
+                    piv.iter()
+                        .enumerate()
+                        .map(|(i, &p)| {
+                            if i == 0 {
+                                format!("(j.{} & 1)", AXES[p])
+                            } else {
+                                format!("((j.{} & 1) << {i}u)", AXES[p])
+                            }
+                        })
+                        .collect();
+                let formula = if expr.is_empty() { "0".to_string() } else { expr.join(" + ") };
+                let mask: IVec = (0..s).map(|a| i64::from(piv.contains(&a))).collect();
+                (1usize << piv.len(), formula, sh.ivec(&mask))
+            }
+            Layout::Embedded => (0, String::new(), String::new()),
+        };
     let extent_product = if s == 3 { "e.x * e.y * e.z" } else { "e.x * e.y" };
     let delinearize =
         if s == 3 { "vec3<i32>(i % e.x, (i / e.x) % e.y, i / (e.x * e.y))" } else { "vec2<i32>(i % e.x, i / e.x)" };
