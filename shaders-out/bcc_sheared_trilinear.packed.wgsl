@@ -4,23 +4,25 @@
 // Evaluation form: power (static ops eval/eval_grad of each form: power 626/711, ridge 616/857, bb 753/826, dense 1062/1204). Fetch bounds: clamp.
 // Entry functions: bcc_sheared_trilinear_fetch, bcc_sheared_trilinear_eval, bcc_sheared_trilinear_eval_grad, bcc_sheared_trilinear_prefilter_main, bcc_sheared_trilinear_minmax_main.
 
-// Coset-packed layout: one dense array per coset of 2Z^3 in the lattice
-// (2 cosets), one word per sample. Sample j lives in coset
-// (j.x & 1) at grid position j >> 1 (floor(j / 2)); the coset is
-// parity arithmetic, so there is no channel select and no branch.
+// Coset-packed layout: one word per sample, the cosets of 2Z^3 in the
+// lattice (2 cosets) tiled in one r32float texture. Sample j lives in
+// coset (j.x & 1) at grid position j >> 1 (floor(j / 2)); each coset's
+// grid is a tile of the texture, offset by the grid size along every pivot axis
+// whose parity bit is set: texel (j >> 1) + (j & vec3<i32>(1, 0, 0)) * size. The
+// tile is parity arithmetic, so there is no channel select and no branch, and
+// the texture is at most the embedded one's size (dims rounded up to even).
 struct bcc_sheared_trilinear_Grid {
     /// Grid size of one coset (x, y, z or x, y) and, in w, the words per coset.
     size: vec4<i32>,
 }
-@group(0) @binding(0) var<storage, read> bcc_sheared_trilinear_samples: array<f32>;
+@group(0) @binding(0) var bcc_sheared_trilinear_cosets: texture_3d<f32>;
 @group(0) @binding(1) var<uniform> bcc_sheared_trilinear_grid: bcc_sheared_trilinear_Grid;
 
-/// One sample at an integer lattice position (clamped to the grid).
+/// One sample at an integer lattice position (clamped to its coset's grid).
 fn bcc_sheared_trilinear_fetch(j: vec3<i32>) -> f32 {
-    let m = clamp(j >> vec3<u32>(1u), vec3<i32>(0), bcc_sheared_trilinear_grid.size.xyz - 1);
-    let coset = (j.x & 1);
-    let index = coset * bcc_sheared_trilinear_grid.size.w + (m.z * bcc_sheared_trilinear_grid.size.y + m.y) * bcc_sheared_trilinear_grid.size.x + m.x;
-    return bcc_sheared_trilinear_samples[index];
+    let g = bcc_sheared_trilinear_grid.size.xyz;
+    let m = clamp(j >> vec3<u32>(1u), vec3<i32>(0), g - 1);
+    return textureLoad(bcc_sheared_trilinear_cosets, m + (j & vec3<i32>(1, 0, 0)) * g, 0).x;
 }
 
 /// floor(a / b) for b > 0, with integer arithmetic only.

@@ -4,23 +4,25 @@
 // Evaluation form: dense (static ops eval/eval_grad of each form: dense 124/312). Fetch bounds: clamp.
 // Entry functions: cc_triquadratic_fetch, cc_triquadratic_eval, cc_triquadratic_eval_grad, cc_triquadratic_prefilter_main, cc_triquadratic_minmax_main.
 
-// Coset-packed layout: one dense array per coset of 2Z^3 in the lattice
-// (8 cosets), one word per sample. Sample j lives in coset
-// (j.x & 1) + ((j.y & 1) << 1u) + ((j.z & 1) << 2u) at grid position j >> 1 (floor(j / 2)); the coset is
-// parity arithmetic, so there is no channel select and no branch.
+// Coset-packed layout: one word per sample, the cosets of 2Z^3 in the
+// lattice (8 cosets) tiled in one r32float texture. Sample j lives in
+// coset (j.x & 1) + ((j.y & 1) << 1u) + ((j.z & 1) << 2u) at grid position j >> 1 (floor(j / 2)); each coset's
+// grid is a tile of the texture, offset by the grid size along every pivot axis
+// whose parity bit is set: texel (j >> 1) + (j & vec3<i32>(1, 1, 1)) * size. The
+// tile is parity arithmetic, so there is no channel select and no branch, and
+// the texture is at most the embedded one's size (dims rounded up to even).
 struct cc_triquadratic_Grid {
     /// Grid size of one coset (x, y, z or x, y) and, in w, the words per coset.
     size: vec4<i32>,
 }
-@group(0) @binding(0) var<storage, read> cc_triquadratic_samples: array<f32>;
+@group(0) @binding(0) var cc_triquadratic_cosets: texture_3d<f32>;
 @group(0) @binding(1) var<uniform> cc_triquadratic_grid: cc_triquadratic_Grid;
 
-/// One sample at an integer lattice position (clamped to the grid).
+/// One sample at an integer lattice position (clamped to its coset's grid).
 fn cc_triquadratic_fetch(j: vec3<i32>) -> f32 {
-    let m = clamp(j >> vec3<u32>(1u), vec3<i32>(0), cc_triquadratic_grid.size.xyz - 1);
-    let coset = (j.x & 1) + ((j.y & 1) << 1u) + ((j.z & 1) << 2u);
-    let index = coset * cc_triquadratic_grid.size.w + (m.z * cc_triquadratic_grid.size.y + m.y) * cc_triquadratic_grid.size.x + m.x;
-    return cc_triquadratic_samples[index];
+    let g = cc_triquadratic_grid.size.xyz;
+    let m = clamp(j >> vec3<u32>(1u), vec3<i32>(0), g - 1);
+    return textureLoad(cc_triquadratic_cosets, m + (j & vec3<i32>(1, 1, 1)) * g, 0).x;
 }
 
 /// floor(a / b) for b > 0, with integer arithmetic only.

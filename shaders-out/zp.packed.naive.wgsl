@@ -4,23 +4,25 @@
 // Evaluation form: dense (static ops eval/eval_grad of each form: dense 63/77). Fetch bounds: clamp.
 // Entry functions: zp_fetch, zp_eval, zp_eval_grad, zp_prefilter_main, zp_minmax_main.
 
-// Coset-packed layout: one dense array per coset of 2Z^2 in the lattice
-// (4 cosets), one word per sample. Sample j lives in coset
-// (j.x & 1) + ((j.y & 1) << 1u) at grid position j >> 1 (floor(j / 2)); the coset is
-// parity arithmetic, so there is no channel select and no branch.
+// Coset-packed layout: one word per sample, the cosets of 2Z^2 in the
+// lattice (4 cosets) tiled in one r32float texture. Sample j lives in
+// coset (j.x & 1) + ((j.y & 1) << 1u) at grid position j >> 1 (floor(j / 2)); each coset's
+// grid is a tile of the texture, offset by the grid size along every pivot axis
+// whose parity bit is set: texel (j >> 1) + (j & vec2<i32>(1, 1)) * size. The
+// tile is parity arithmetic, so there is no channel select and no branch, and
+// the texture is at most the embedded one's size (dims rounded up to even).
 struct zp_Grid {
     /// Grid size of one coset (x, y, z or x, y) and, in w, the words per coset.
     size: vec4<i32>,
 }
-@group(0) @binding(0) var<storage, read> zp_samples: array<f32>;
+@group(0) @binding(0) var zp_cosets: texture_2d<f32>;
 @group(0) @binding(1) var<uniform> zp_grid: zp_Grid;
 
-/// One sample at an integer lattice position (clamped to the grid).
+/// One sample at an integer lattice position (clamped to its coset's grid).
 fn zp_fetch(j: vec2<i32>) -> f32 {
-    let m = clamp(j >> vec2<u32>(1u), vec2<i32>(0), zp_grid.size.xy - 1);
-    let coset = (j.x & 1) + ((j.y & 1) << 1u);
-    let index = coset * zp_grid.size.w + m.y * zp_grid.size.x + m.x;
-    return zp_samples[index];
+    let g = zp_grid.size.xy;
+    let m = clamp(j >> vec2<u32>(1u), vec2<i32>(0), g - 1);
+    return textureLoad(zp_cosets, m + (j & vec2<i32>(1, 1)) * g, 0).x;
 }
 
 /// floor(a / b) for b > 0, with integer arithmetic only.

@@ -29,11 +29,13 @@ pub enum LimitError {
         dims[0], dims[1], dims[2]
     )]
     TextureEdge { dims: [usize; 3], max: usize },
-    /// A packed volume over the adapter's storage buffer limit.
+    /// A packed volume whose texture (a tile per coset) has an edge over the
+    /// adapter's 3D texture limit.
     #[error(
-        "the packed volume needs {bytes} bytes, over this adapter's storage buffer limit of {max} bytes; resample or use a smaller ml:N"
+        "the packed volume of {}x{}x{} samples is a {}x{}x{} texture (one tile per coset), over this adapter's 3D texture limit of {max} per edge; resample or use a smaller ml:N",
+        dims[0], dims[1], dims[2], texture[0], texture[1], texture[2]
     )]
-    BufferBytes { bytes: u64, max: u64 },
+    PackedTextureEdge { dims: [usize; 3], texture: [usize; 3], max: usize },
 }
 
 /// `N` of `ml:N`, parsed and bounded.
@@ -55,31 +57,29 @@ pub fn check_samples(dims: [usize; 3], what: &str) -> Result<u64, LimitError> {
     }
 }
 
-/// A volume against the adapter: embedded textures by their edge, packed
-/// buffers by their bytes.
+/// A volume of `dims` samples against the adapter: the edges of its texture
+/// in `layout` (`texture`: the dims when embedded,
+/// `LatticeVolume::packed_texture_size` when packed).
 pub fn check_volume_limits(
     dims: [usize; 3],
-    bytes: u64,
-    embedded: bool,
+    texture: [usize; 3],
+    layout: boxforge::emit::Layout,
     limits: &wgpu::Limits,
 ) -> Result<(), LimitError> {
-    if embedded {
-        let max = limits.max_texture_dimension_3d as usize;
-        if dims.iter().any(|&d| d > max) {
-            return Err(LimitError::TextureEdge { dims, max });
-        }
-    } else {
-        let max = limits.max_storage_buffer_binding_size.min(limits.max_buffer_size);
-        if bytes > max {
-            return Err(LimitError::BufferBytes { bytes, max });
-        }
+    let max = limits.max_texture_dimension_3d as usize;
+    if texture.iter().all(|&d| d <= max) {
+        return Ok(());
     }
-    Ok(())
+    Err(match layout {
+        boxforge::emit::Layout::Embedded => LimitError::TextureEdge { dims, max },
+        boxforge::emit::Layout::Packed => LimitError::PackedTextureEdge { dims, texture, max },
+    })
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use boxforge::emit::Layout::{Embedded, Packed};
 
     #[test]
     fn ml_n_and_samples_are_bounded() {
@@ -95,9 +95,12 @@ mod tests {
     fn volume_limits_are_checked_before_any_upload() {
         let limits = wgpu::Limits::downlevel_defaults();
         let edge = limits.max_texture_dimension_3d as usize + 1;
-        assert!(check_volume_limits([edge, 4, 4], 0, true, &limits).is_err());
-        assert!(check_volume_limits([64, 64, 64], 64 * 64 * 64 * 4, true, &limits).is_ok());
-        assert!(check_volume_limits([8, 8, 8], u64::MAX, false, &limits).is_err());
+        assert!(check_volume_limits([edge, 4, 4], [edge, 4, 4], Embedded, &limits).is_err());
+        assert!(check_volume_limits([64, 64, 64], [64, 64, 64], Embedded, &limits).is_ok());
+        // Packed: the texture's edges count, not the volume's.
+        assert!(check_volume_limits([edge, 4, 4], [edge / 2, 2, 2], Packed, &limits).is_ok());
+        let e = check_volume_limits([edge, 4, 4], [edge + 1, 2, 2], Packed, &limits).unwrap_err();
+        assert!(matches!(e, LimitError::PackedTextureEdge { .. }), "{e}");
     }
 
     #[test]
@@ -107,8 +110,8 @@ mod tests {
             parse_ml_n("x").unwrap_err(),
             parse_ml_n("1").unwrap_err(),
             check_samples([usize::MAX, 2, 2], "v").unwrap_err(),
-            check_volume_limits([1 << 20, 4, 4], 0, true, &limits).unwrap_err(),
-            check_volume_limits([8, 8, 8], u64::MAX, false, &limits).unwrap_err(),
+            check_volume_limits([1 << 20, 4, 4], [1 << 20, 4, 4], Embedded, &limits).unwrap_err(),
+            check_volume_limits([1 << 20, 4, 4], [1 << 20, 2, 2], Packed, &limits).unwrap_err(),
         ];
         for e in errors {
             let text = e.to_string();

@@ -87,14 +87,27 @@ export function subsetVolume(lattice, cart, label) {
   return { dims: cart.dims.slice(), data, samples: count, label };
 }
 
-/** The coset-packed words and grid [gx, gy, gz, words] (LatticeVolume::packed). */
+/**
+ * The coset-packed texture (LatticeVolume::packed): words x fastest in a texture of
+ * g = ceil(dims / 2) texels per axis, 2 g on the pivot axes (the axes of the coset id's
+ * bits: coset c's bit i is the parity of axis pivots[i]); coset c's grid is the tile at
+ * (r & p) * g for its parity vector r. Returns the words, texture size and grid [gx, gy, gz, words].
+ */
 export function packVolume(vol, cosets) {
   const g = vol.dims.map((n) => Math.ceil(n / 2));
   const words = g[0] * g[1] * g[2];
+  // Pivot axes: the first axis of each coset bit (cosets 1, 2, 4, ... differ from 0 there).
+  const pivot = [0, 0, 0];
+  for (let i = 1; i < cosets.length; i *= 2) {
+    const r = cosets[i];
+    if (r.length === 3) pivot[r.findIndex((x) => x === 1)] = 1;
+  }
+  const size = g.map((n, a) => n * (1 + pivot[a]));
   const buf = new Float32Array(cosets.length * words);
   const [nx, ny] = vol.dims;
-  cosets.forEach((r, c) => {
+  cosets.forEach((r) => {
     if (r.length !== 3) return;
+    const o = r.map((x, a) => x * pivot[a] * g[a]);
     for (let mz = 0; mz < g[2]; mz++) for (let my = 0; my < g[1]; my++) for (let mx = 0; mx < g[0]; mx++) {
       const m = [mx, my, mz];
       const j = [0, 0, 0];
@@ -107,10 +120,10 @@ export function packVolume(vol, cosets) {
         }
         j[a] = v;
       }
-      if (inside) buf[c * words + (mz * g[1] + my) * g[0] + mx] = vol.data[j[0] + nx * (j[1] + ny * j[2])];
+      if (inside) buf[((mz + o[2]) * size[1] + my + o[1]) * size[0] + mx + o[0]] = vol.data[j[0] + nx * (j[1] + ny * j[2])];
     }
   });
-  return { words: buf, grid: new Int32Array([g[0], g[1], g[2], words]) };
+  return { words: buf, size, grid: new Int32Array([g[0], g[1], g[2], words]) };
 }
 
 /** A `.bfv` file: "BFVOL\0\x01\0", nx, ny, nz (u32 LE), then f32 LE samples, x fastest. */
@@ -403,9 +416,13 @@ class Scene {
     } else {
       if (!filter.lattice.cosets) throw new Error(`the ${filter.lattice.name} lattice has no packed layout (2Z^3 is not in it)`);
       const packed = packVolume(vol, filter.lattice.cosets);
-      if (packed.words.byteLength > dev.limits.maxStorageBufferBindingSize) throw new Error(`the packed volume needs ${packed.words.byteLength} bytes, over this device's storage binding limit of ${dev.limits.maxStorageBufferBindingSize}`);
+      const [tx, ty, tz] = packed.size;
+      const limit = dev.limits.maxTextureDimension3D;
+      if (Math.max(tx, ty, tz) > limit) throw new Error(`the packed volume is a ${packed.size.join('x')} texture (one tile per coset), over this device's 3D texture limit of ${limit}: use fewer samples`);
+      const tex = dev.createTexture({ size: [tx, ty, tz], format: 'r32float', dimension: '3d', usage: GPUTextureUsage.TEXTURE_BINDING | GPUTextureUsage.COPY_DST });
+      dev.queue.writeTexture({ texture: tex }, packed.words, { bytesPerRow: tx * 4, rowsPerImage: ty }, [tx, ty, tz]);
       volumeEntries = [
-        { binding: 0, resource: { buffer: gpu.buffer(packed.words, STORAGE) } },
+        { binding: 0, resource: tex.createView() },
         { binding: 1, resource: { buffer: gpu.buffer(packed.grid, UNIFORM) } },
       ];
       s.bytes = packed.words.byteLength;

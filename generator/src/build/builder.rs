@@ -74,7 +74,7 @@ pub const BUILDER_COMMAND: &str = "boxforge::Builder (build.rs)";
 ///     boxforge::Builder::new().filter("zp").layout(Layout::Packed).bind_group(1).out_dir(&dir).generate()?;
 /// assert_eq!(generated.files, vec![dir.join("zp.packed.wgsl")]);
 /// let wgsl = std::fs::read_to_string(&generated.files[0])?;
-/// assert!(wgsl.contains("@group(1) @binding(0) var<storage, read> zp_samples: array<f32>;"));
+/// assert!(wgsl.contains("@group(1) @binding(0) var zp_cosets: texture_2d<f32>;"));
 /// # std::fs::remove_dir_all(&dir)?;
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```

@@ -305,7 +305,7 @@ mod tests {
         assert_eq!(embedded[2], "0/2 zp_job uniform buffer zp_Job ep=2 fn= purpose=true");
         let packed = rows("packed", "naive");
         assert_eq!(packed.len(), 4, "{packed:#?}");
-        assert!(packed[0].starts_with("0/0 zp_samples storage buffer read array<f32> ep=2 fn="), "{packed:#?}");
+        assert!(packed[0].starts_with("0/0 zp_cosets texture_2d<f32> - ep=2 fn="), "{packed:#?}");
         assert!(packed[1].starts_with("0/1 zp_grid uniform buffer zp_Grid ep=2 fn="), "{packed:#?}");
         assert_eq!(packed[2], "0/2 zp_out storage buffer read_write array<f32> ep=2 fn= purpose=true");
         assert_eq!(packed[3], "0/3 zp_job uniform buffer zp_Job ep=2 fn= purpose=true");

@@ -12,11 +12,12 @@
 //! integer arithmetic; the fold maps stencils by signed permutations, which
 //! keep adjacent texels adjacent.
 //!
-//! The cosets are slabs of one filterable texture, stacked along the last
-//! axis in coset order: slab c holds exactly the words of coset c in the
-//! packed buffer, so the coset is arithmetic on the parity of j (as in the
-//! buffer fetch), never a choice between textures. Clamping each texel to
-//! its slab before interpolating reproduces the exact loads' clamp-to-edge.
+//! The cosets are tiles of the one packed texture the exact fetch reads
+//! (bound as filterable): coset c's grid is offset by the grid size along
+//! each pivot axis whose parity bit is set, so the tile is arithmetic on the
+//! parity of j (as in the exact fetch), never a choice between textures.
+//! Clamping each texel to its tile before interpolating reproduces the exact
+//! loads' clamp-to-edge.
 
 use super::locate::{emit_candidate_choice, emit_frame, local_coords, select_by_candidate, Fast, Frame};
 use super::writer::{Body, Shapes, AXES};

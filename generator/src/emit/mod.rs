@@ -45,7 +45,8 @@ use std::fmt::Write;
 pub enum Layout {
     /// Cartesian texture with the lattice embedded (|det G| texels per sample).
     Embedded,
-    /// One dense array per coset of 2Z^s in a storage buffer (one word per sample).
+    /// One dense grid per coset of 2Z^s, each a tile of one texture read with
+    /// `textureLoad` (one texel per sample).
     Packed,
 }
 
@@ -122,14 +123,14 @@ pub struct EmitOptions {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum FetchMode {
-    /// One exact `textureLoad` (or buffer read) per stencil sample.
+    /// One exact `textureLoad` per stencil sample.
     #[default]
     Exact,
     /// Hardware linear filtering: pairs of adjacent samples (box-spline
     /// weights are non-negative) become one `textureSampleLevel` at the
     /// weighted position. Packed layout: any filter, pairs within each coset
-    /// grid (a linear sampler at binding + 4, the coset slabs texture at
-    /// binding + 5; see [`linear`]). Embedded layout: one-coset tensor
+    /// grid (a linear sampler at binding + 4 on the packed texture, bound as
+    /// filterable; see [`linear`]). Embedded layout: one-coset tensor
     /// products in the factored form, groups of 2^s as trilinear fetches
     /// (a filterable texture and a linear sampler at binding + 4). Real GPUs
     /// interpolate with about 8-bit weights; `eval_grad` keeps exact loads
@@ -264,10 +265,9 @@ pub struct EmitStats {
 pub fn binding_purpose(filter: &str, name: &str) -> Option<&'static str> {
     Some(match name.strip_prefix(filter)?.strip_prefix('_')? {
         "volume" => "The samples as an r32float texture: lattice point j at texel j (the other texels are unused).",
-        "samples" => "The samples packed per coset of 2Z^s: lattice point j at word coset(j) * grid.size.w + the row-major index of j >> 1 in the coset grid.",
+        "cosets" => "The samples packed per coset of 2Z^s as one r32float texture (filterable with fetch = linear): lattice point j at texel (j >> 1) + (j & p) * grid.size, p = 1 on the pivot axes of the coset id, so each coset's grid is one tile.",
         "grid" => "The coset grid: its size (x, y, z or x, y) and, in w, the words per coset.",
         "linear" => "A linear, clamp-to-edge sampler for the hardware-filtered fetches.",
-        "cosets" => "The packed samples again as one filterable r32float texture, the cosets stacked as slabs along the last axis (slab c = coset c).",
         "out" => "The kernels' output buffer: one prefiltered value per point of the job's box (row-major), or a (min, max) pair per block for minmax.",
         "job" => "The kernel's job: the box's lattice-coordinate origin and extent, and the block edge B in extent.w for minmax.",
         _ => return None,
@@ -402,7 +402,9 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
         }
     }
     let swz: String = AXES[..s].concat();
-    let (coset_expr, linear_expr, cosets, coset_formula) =
+    // Packed: the coset formula (for the header) and the mask of the pivot
+    // axes, whose parity bits pick the coset's tile of the texture.
+    let (cosets, coset_formula, coset_mask) =
         match opts.layout {
             Layout::Packed => {
                 let piv = coset_pivots(&d.filter.lattice)?;
@@ -417,25 +419,12 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
                             }
                         })
                         .collect();
-                let expr = if expr.is_empty() { "0".to_string() } else { expr.join(" + ") };
-                let lin = if s == 3 {
-                    format!("(m.z * {name}_grid.size.y + m.y) * {name}_grid.size.x + m.x")
-                } else {
-                    format!("m.y * {name}_grid.size.x + m.x")
-                };
-                let formula = expr.clone();
-                (expr, lin, 1usize << piv.len(), formula)
+                let formula = if expr.is_empty() { "0".to_string() } else { expr.join(" + ") };
+                let mask: IVec = (0..s).map(|a| i64::from(piv.contains(&a))).collect();
+                (1usize << piv.len(), formula, sh.ivec(&mask))
             }
-            Layout::Embedded => (String::new(), String::new(), 0, String::new()),
+            Layout::Embedded => (0, String::new(), String::new()),
         };
-    // Packed linear fetches: coset slabs stacked along the last axis.
-    let last = AXES[s - 1];
-    let halves: Vec<String> =
-        (0..s).map(|i| if i + 1 == s { format!("0.5 + f32(coset * g.{last})") } else { "0.5".into() }).collect();
-    let slab_offset = sh.fvec(&halves);
-    let dims: Vec<String> =
-        (0..s).map(|i| if i + 1 == s { format!("g.{last} * {cosets}") } else { format!("g.{}", AXES[i]) }).collect();
-    let stack_dims = format!("{}({}({}))", sh.vecf, sh.veci, dims.join(", "));
     let extent_product = if s == 3 { "e.x * e.y * e.z" } else { "e.x * e.y" };
     let delinearize =
         if s == 3 { "vec3<i32>(i % e.x, (i / e.x) % e.y, i / (e.x * e.y))" } else { "vec2<i32>(i % e.x, i / e.x)" };
@@ -474,10 +463,9 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
         vecu => format!("vec{s}<u32>"),
         gradf => format!("vec{}<f32>", s + 1),
         swz => swz,
-        coset_expr => coset_expr,
         coset_formula => coset_formula,
+        coset_mask => coset_mask,
         cosets => cosets,
-        linear_expr => linear_expr,
         helpers => helper_text,
         eval_body => eval_body.clone(),
         grad_body => grad_body.clone(),
@@ -489,8 +477,6 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
         prefilter_body => prefilter_body,
         clamp => opts.bounds == Bounds::Clamp,
         linear => opts.fetch == FetchMode::Linear,
-        slab_offset => slab_offset,
-        stack_dims => stack_dims,
     };
     let source = tmpl.render(ctx).map_err(|e| Error::Spec { origin: "templates".into(), message: e.to_string() })?;
     let stats = EmitStats {

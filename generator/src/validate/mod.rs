@@ -48,6 +48,8 @@ pub struct FunctionReport {
     pub dynamic_array_indexing: usize,
     /// `textureLoad`s plus loads from storage globals in the own body.
     pub loads: usize,
+    /// `textureLoad`s alone in the own body (`loads` less the storage-buffer reads).
+    pub image_loads: usize,
     /// Functions called from the own body, one entry per call site, in statement order.
     pub calls: Vec<String>,
     /// `branches` over the call tree.
@@ -195,17 +197,21 @@ impl Totals {
 /// Own-body counts and call sites of one function.
 struct Own {
     counts: Totals,
+    image_loads: usize,
     calls: Vec<Handle<Function>>,
 }
 
 impl Own {
     fn of(module: &Module, fun: &Function, info: &FunctionInfo) -> Own {
-        let mut own = Own { counts: Totals::default(), calls: Vec::new() };
+        let mut own = Own { counts: Totals::default(), image_loads: 0, calls: Vec::new() };
         own.walk_block(&fun.body);
         for (_, expr) in fun.expressions.iter() {
             match *expr {
                 Expression::Access { base, .. } if is_table(module, info, base) => own.counts.tables += 1,
-                Expression::ImageLoad { .. } => own.counts.loads += 1,
+                Expression::ImageLoad { .. } => {
+                    own.counts.loads += 1;
+                    own.image_loads += 1;
+                }
                 Expression::Load { pointer } if loads_from_storage(module, fun, pointer) => own.counts.loads += 1,
                 _ => {}
             }
@@ -249,6 +255,7 @@ impl Own {
             kills: self.counts.kills,
             dynamic_array_indexing: self.counts.tables,
             loads: self.counts.loads,
+            image_loads: self.image_loads,
             calls: self.calls.iter().map(|h| names[h.index()].clone()).collect(),
             total_branches: totals.branches,
             total_loops: totals.loops,
@@ -360,6 +367,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         // One textureLoad and one storage-buffer read in the own body (the uniform read is
         // not a load), plus two calls to `fetch`.
         assert_eq!(eval.loads, 2);
+        assert_eq!((eval.image_loads, fetch.image_loads), (1, 1));
         assert_eq!(eval.calls, vec!["weights", "fetch", "fetch"]);
         assert_eq!(eval.total_loads, 4);
         let main = get(&report, "main");

@@ -7,13 +7,13 @@ use boxforge::emit::Layout;
 use wgpu::util::DeviceExt;
 
 /// Samples uploaded for one layout, with the bind-group pieces the emitted
-/// module declares (embedded: one 3D texture; packed: storage buffer + grid uniform).
+/// module declares (embedded: one 3D texture; packed: one 3D texture with a
+/// tile per coset + the coset grid uniform).
 pub struct DeviceVolume {
     pub layout: Layout,
     texture_view: Option<wgpu::TextureView>,
     /// With `fetch = linear`: a linear clamp-to-edge sampler at binding + 4
-    /// (embedded: the texture bound as filterable; packed: the coset slabs
-    /// texture at binding + 5, in `texture_view`).
+    /// (the texture bound as filterable, in either layout).
     sampler: Option<wgpu::Sampler>,
     buffers: Vec<wgpu::Buffer>,
     /// Bytes on the device for the samples.
@@ -26,12 +26,10 @@ pub struct DeviceVolume {
 
 impl DeviceVolume {
     pub fn new(gpu: &Gpu, v: &LatticeVolume, layout: Layout) -> Result<DeviceVolume, GpuError> {
-        if layout == Layout::Embedded {
-            crate::limits::check_volume_limits(v.dims, v.data.len() as u64 * 4, true, &gpu.limits())
-                .map_err(|e| GpuError::Runtime(e.to_string()))?;
-        }
         match layout {
             Layout::Embedded => {
+                crate::limits::check_volume_limits(v.dims, v.dims, layout, &gpu.limits())
+                    .map_err(|e| GpuError::Runtime(e.to_string()))?;
                 let [nx, ny, nz] = v.dims;
                 let view = r32_texture_3d(gpu, "embedded samples", [nx as u32, ny as u32, nz as u32], &v.data)?;
                 Ok(DeviceVolume {
@@ -45,17 +43,18 @@ impl DeviceVolume {
                 })
             }
             Layout::Packed => {
-                let (words, grid) = v.packed().map_err(|e| GpuError::Runtime(e.to_string()))?;
-                crate::limits::check_volume_limits(v.dims, words.len() as u64 * 4, false, &gpu.limits())
+                let p = v.packed().map_err(|e| GpuError::Runtime(e.to_string()))?;
+                crate::limits::check_volume_limits(v.dims, p.texture, layout, &gpu.limits())
                     .map_err(|e| GpuError::Runtime(e.to_string()))?;
-                let samples = gpu.storage_buffer("packed samples", bytemuck::cast_slice(&words), false);
-                let grid = gpu.uniform_buffer("packed grid", bytemuck::cast_slice(&grid));
+                let [tx, ty, tz] = p.texture;
+                let view = r32_texture_3d(gpu, "packed samples", [tx as u32, ty as u32, tz as u32], &p.words)?;
+                let grid = gpu.uniform_buffer("packed grid", bytemuck::cast_slice(&p.grid));
                 Ok(DeviceVolume {
                     layout,
-                    texture_view: None,
+                    texture_view: Some(view),
                     sampler: None,
-                    buffers: vec![samples, grid],
-                    bytes: words.len() * 4,
+                    buffers: vec![grid],
+                    bytes: p.words.len() * 4,
                     dims: v.dims,
                     lattice: v.lattice.clone(),
                 })
@@ -64,10 +63,9 @@ impl DeviceVolume {
     }
 
     /// The samples bound for hardware-filtered fetches (modules emitted with
-    /// `FetchMode::Linear`): a linear clamp-to-edge sampler at binding + 4
-    /// and, embedded, the texture bound as filterable; packed, the buffer and
-    /// grid as usual plus the same words as one filterable 3D texture at
-    /// binding + 5, the cosets stacked as slabs along z. Needs FLOAT32_FILTERABLE.
+    /// `FetchMode::Linear`): the same texture as [`DeviceVolume::new`], bound
+    /// as filterable, and a linear clamp-to-edge sampler at binding + 4 (no
+    /// extra memory). Needs FLOAT32_FILTERABLE.
     pub fn new_filtered(gpu: &Gpu, v: &LatticeVolume, layout: Layout) -> Result<DeviceVolume, GpuError> {
         if !gpu.device.features().contains(wgpu::Features::FLOAT32_FILTERABLE) {
             return Err(GpuError::Runtime(
@@ -76,22 +74,6 @@ impl DeviceVolume {
         }
         let mut dv = DeviceVolume::new(gpu, v, layout)?;
         dv.sampler = Some(linear_sampler(gpu, "linear samples"));
-        if layout == Layout::Packed {
-            let (words, grid) = v.packed().map_err(|e| GpuError::Runtime(e.to_string()))?;
-            let cosets = words.len() / (grid[3].max(1) as usize);
-            let depth = grid[2] as u64 * cosets as u64;
-            let max = gpu.limits().max_texture_dimension_3d as u64;
-            if grid[0] as u64 > max || grid[1] as u64 > max || depth > max {
-                return Err(GpuError::Runtime(format!(
-                    "fetch = linear on the packed layout stacks the {cosets} coset grids of {}x{}x{} into one texture {} deep, \
-                     over this adapter's max_texture_dimension_3d ({max}); use exact fetches or a smaller volume",
-                    grid[0], grid[1], grid[2], depth
-                )));
-            }
-            dv.texture_view =
-                Some(r32_texture_3d(gpu, "coset slabs", [grid[0] as u32, grid[1] as u32, depth as u32], &words)?);
-            dv.bytes += words.len() * 4;
-        }
         Ok(dv)
     }
 
@@ -112,16 +94,7 @@ impl DeviceVolume {
             }
             Layout::Packed => {
                 let mut e = vec![
-                    wgpu::BindGroupLayoutEntry {
-                        binding: first,
-                        visibility,
-                        ty: wgpu::BindingType::Buffer {
-                            ty: wgpu::BufferBindingType::Storage { read_only: true },
-                            has_dynamic_offset: false,
-                            min_binding_size: None,
-                        },
-                        count: None,
-                    },
+                    texture_3d_entry(first, visibility, self.filtered()),
                     wgpu::BindGroupLayoutEntry {
                         binding: first + 1,
                         visibility,
@@ -135,7 +108,6 @@ impl DeviceVolume {
                 ];
                 if self.filtered() {
                     e.push(sampler_entry(first + 4, visibility));
-                    e.push(texture_3d_entry(first + 5, visibility, true));
                 }
                 e
             }
@@ -157,15 +129,14 @@ impl DeviceVolume {
             }
             Layout::Packed => {
                 let mut e = vec![
-                    wgpu::BindGroupEntry { binding: first, resource: self.buffers[0].as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: first + 1, resource: self.buffers[1].as_entire_binding() },
+                    wgpu::BindGroupEntry {
+                        binding: first,
+                        resource: wgpu::BindingResource::TextureView(self.texture_view.as_ref().unwrap()),
+                    },
+                    wgpu::BindGroupEntry { binding: first + 1, resource: self.buffers[0].as_entire_binding() },
                 ];
-                if let (Some(s), Some(view)) = (&self.sampler, &self.texture_view) {
+                if let Some(s) = &self.sampler {
                     e.push(wgpu::BindGroupEntry { binding: first + 4, resource: wgpu::BindingResource::Sampler(s) });
-                    e.push(wgpu::BindGroupEntry {
-                        binding: first + 5,
-                        resource: wgpu::BindingResource::TextureView(view),
-                    });
                 }
                 e
             }

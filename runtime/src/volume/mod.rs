@@ -27,6 +27,7 @@ mod testutil;
 
 pub use device::DeviceVolume;
 pub use error::VolumeError;
+pub use packing::PackedVolume;
 pub use raw::{parse_raw_spec, RawType};
 pub use synthetic::{marschner_lobb, marschner_lobb_grad, ml_position};
 

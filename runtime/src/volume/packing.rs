@@ -1,10 +1,24 @@
-//! The coset-packed storage layout of lattice samples (one word per sample,
-//! as the emitted `<f>_fetch` of templates/fetch_packed.wgsl.j2 reads it) and
-//! the memory sizes of the packed and embedded layouts.
+//! The coset-packed layout of lattice samples (one word per sample, each
+//! coset's grid one tile of an r32float texture, as the emitted `<f>_fetch`
+//! of templates/fetch_packed.wgsl.j2 reads it) and the memory sizes of the
+//! packed and embedded layouts.
 
 use super::error::checked_count;
 use super::{LatticeVolume, VolumeError};
 use boxforge::emit::{coset_of, coset_pivots};
+
+/// A volume in the packed layout: the texture's words and size and the
+/// grid uniform of the emitted `<f>_grid`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PackedVolume {
+    /// Texels, x fastest: coset c's grid is the tile at (m + (r & p) * g)
+    /// for its parity vector r, p = 1 on the pivot axes.
+    pub words: Vec<f32>,
+    /// Texture size: g on the other axes, 2 g on the pivot axes.
+    pub texture: [usize; 3],
+    /// `<f>_grid.size`: the coset grid g and, in w, the words per coset.
+    pub grid: [i32; 4],
+}
 
 impl LatticeVolume {
     /// Coset grid size g = ceil(dims / 2) per axis and the coset pivots, checked to fit i32.
@@ -26,22 +40,24 @@ impl LatticeVolume {
         }
     }
 
-    /// Packed layout for the storage buffer of the emitted `<f>_fetch` (see
-    /// templates/fetch_packed.wgsl.j2): coset grid size g = ceil(dims / 2) per axis, words per
-    /// coset = gx*gy*gz, sample j stored at coset_of(pivots, j) * words + lin(j >> 1) with
-    /// lin(m) = (m.z * gy + m.y) * gx + m.x; returns (buffer words, [gx, gy, gz, words]).
+    /// Packed layout for the texture of the emitted `<f>_fetch` (see
+    /// templates/fetch_packed.wgsl.j2): coset grid size g = ceil(dims / 2) per axis; sample j
+    /// of the coset with parity vector r stored at texel t = (j >> 1) + (r & p) * g, p = 1 on
+    /// the pivot axes (so each coset's grid is one tile), in a texture of g (2 g on the pivot
+    /// axes) texels per axis, index (t.z * ty + t.y) * tx + t.x.
     ///
     /// With an odd dim, a coset whose points on that axis are odd has one slot past the box;
     /// it holds the value of the same-coset point two steps back, so the shader's clamped
     /// fetch replicates the boundary of each coset (a coset with no point on an axis of
     /// size 1 gets 0).
-    pub fn packed(&self) -> Result<(Vec<f32>, [i32; 4]), VolumeError> {
+    pub fn packed(&self) -> Result<PackedVolume, VolumeError> {
         let (g, words, pivots) = self.packed_shape()?;
         let expected = checked_count(self.dims)?;
         if self.data.len() != expected {
             return Err(VolumeError::DataLength { dims: self.dims, len: self.data.len(), expected });
         }
         let cosets = 1usize << pivots.len();
+        let texture: [usize; 3] = std::array::from_fn(|a| if pivots.contains(&a) { 2 * g[a] } else { g[a] });
         // Parity vector of each coset: parities on the pivot axes from the coset id,
         // the others fixed by membership (the parity patterns of L are spanned by
         // the reduced basis, so the pivot bits determine the rest).
@@ -54,8 +70,9 @@ impl LatticeVolume {
         }
         let mut buf = vec![0f32; cosets * words];
         let [nx, ny, _] = self.dims;
-        for (c, r) in parity.iter().enumerate() {
-            let Some(r) = r else { continue };
+        for r in parity.iter().flatten() {
+            // The tile's corner: g on each pivot axis whose parity is odd.
+            let o: [usize; 3] = std::array::from_fn(|a| if pivots.contains(&a) { r[a] as usize * g[a] } else { 0 });
             for mz in 0..g[2] {
                 for my in 0..g[1] {
                     for mx in 0..g[0] {
@@ -74,13 +91,23 @@ impl LatticeVolume {
                             j[a] = v;
                         }
                         if inside {
-                            buf[c * words + (mz * g[1] + my) * g[0] + mx] = self.data[j[0] + nx * (j[1] + ny * j[2])];
+                            let t = [mx + o[0], my + o[1], mz + o[2]];
+                            buf[(t[2] * texture[1] + t[1]) * texture[0] + t[0]] =
+                                self.data[j[0] + nx * (j[1] + ny * j[2])];
                         }
                     }
                 }
             }
         }
-        Ok((buf, [g[0] as i32, g[1] as i32, g[2] as i32, words as i32]))
+        Ok(PackedVolume { words: buf, texture, grid: [g[0] as i32, g[1] as i32, g[2] as i32, words as i32] })
+    }
+
+    /// Size of the packed texture (g per axis, 2 g on the pivot axes: at most the
+    /// embedded texture's size with dims rounded up to even); `None` when the lattice has
+    /// no packed layout.
+    pub fn packed_texture_size(&self) -> Option<[usize; 3]> {
+        let (g, _, pivots) = self.packed_shape().ok()?;
+        Some(std::array::from_fn(|a| if pivots.contains(&a) { 2 * g[a] } else { g[a] }))
     }
 
     /// Bytes of the embedded texture (4 per integer point of the box), for memory reports.
@@ -88,7 +115,7 @@ impl LatticeVolume {
         4 * self.dims.iter().product::<usize>()
     }
 
-    /// Bytes of the packed buffer (4 per word; one word per sample when dims are even;
+    /// Bytes of the packed texture (4 per word; one word per sample when dims are even;
     /// 0 when the lattice has no packed layout).
     pub fn packed_bytes(&self) -> usize {
         self.packed_shape().map(|(_, words, pivots)| 4 * (words << pivots.len())).unwrap_or(0)
@@ -102,19 +129,29 @@ mod tests {
     use crate::volume::Volume;
     use boxforge::spec::lattice::Lattice;
 
-    /// The shader's packed fetch (templates/fetch_packed.wgsl.j2), written out
-    /// by hand per lattice: coset from the parity of j, grid position j >> 1
-    /// clamped to the coset grid, index = coset * words + (m.z*gy + m.y)*gx + m.x.
-    fn shader_fetch(name: &str, buf: &[f32], size: [i32; 4], j: [i64; 3]) -> f32 {
-        let coset = match name {
-            "bcc" => j[0] & 1,
-            "fcc" => (j[0] & 1) + ((j[1] & 1) << 1),
-            "cc" => (j[0] & 1) + ((j[1] & 1) << 1) + ((j[2] & 1) << 2),
+    /// The pivot mask p of the shader's tile offset, per lattice.
+    fn mask(name: &str) -> [i64; 3] {
+        match name {
+            "bcc" => [1, 0, 0],
+            "fcc" => [1, 1, 0],
+            "cc" => [1, 1, 1],
             _ => unreachable!(),
-        };
-        let m: Vec<i64> = (0..3).map(|a| (j[a] >> 1).clamp(0, size[a] as i64 - 1)).collect();
-        let index = coset * size[3] as i64 + (m[2] * size[1] as i64 + m[1]) * size[0] as i64 + m[0];
-        buf[index as usize]
+        }
+    }
+
+    /// The shader's packed fetch (templates/fetch_packed.wgsl.j2), written out
+    /// by hand per lattice: grid position m = j >> 1 clamped to the coset grid,
+    /// texel t = m + (j & p) * g, index (t.z * ty + t.y) * tx + t.x.
+    fn shader_index(name: &str, size: [i32; 4], j: [i64; 3]) -> usize {
+        let p = mask(name);
+        let g = [size[0] as i64, size[1] as i64, size[2] as i64];
+        let t: Vec<i64> = (0..3).map(|a| (j[a] >> 1).clamp(0, g[a] - 1) + (j[a] & p[a]) * g[a]).collect();
+        let tex: Vec<i64> = (0..3).map(|a| g[a] * (1 + p[a])).collect();
+        ((t[2] * tex[1] + t[1]) * tex[0] + t[0]) as usize
+    }
+
+    fn shader_fetch(name: &str, buf: &[f32], size: [i32; 4], j: [i64; 3]) -> f32 {
+        buf[shader_index(name, size, j)]
     }
 
     #[test]
@@ -125,9 +162,15 @@ mod tests {
         for name in ["cc", "bcc", "fcc"] {
             for dims in [[8, 8, 8], [7, 6, 5], [10, 4, 6], [1, 2, 3]] {
                 let l = LatticeVolume::subset(&lattice(name), &test_volume(dims)).unwrap();
-                let (buf, size) = l.packed().unwrap();
+                let PackedVolume { words: buf, texture, grid: size } = l.packed().unwrap();
                 let g = dims.map(|n| n.div_ceil(2) as i32);
                 assert_eq!(size, [g[0], g[1], g[2], g[0] * g[1] * g[2]]);
+                let p = mask(name);
+                assert_eq!(texture, std::array::from_fn(|a| g[a] as usize * (1 + p[a] as usize)));
+                assert_eq!(l.packed_texture_size(), Some(texture));
+                assert_eq!(texture.iter().product::<usize>(), buf.len());
+                // Never larger than the embedded texture with dims rounded up to even.
+                assert!((0..3).all(|a| texture[a] <= dims[a] + dims[a] % 2), "{name} {dims:?} {texture:?}");
                 let cosets = 8 / l.lattice.det() as usize;
                 assert_eq!(buf.len(), cosets * size[3] as usize);
                 assert_eq!(l.packed_bytes(), 4 * buf.len());
@@ -139,16 +182,9 @@ mod tests {
                         for i in 0..dims[0] as i64 {
                             if member(name, [i as usize, j as usize, k as usize]) {
                                 assert_eq!(shader_fetch(name, &buf, size, [i, j, k]), l.get(&[i, j, k]));
-                                let coset = match name {
-                                    "bcc" => i & 1,
-                                    "fcc" => (i & 1) + ((j & 1) << 1),
-                                    _ => (i & 1) + ((j & 1) << 1) + ((k & 1) << 2),
-                                };
-                                let idx = coset * size[3] as i64
-                                    + ((k >> 1) * size[1] as i64 + (j >> 1)) * size[0] as i64
-                                    + (i >> 1);
-                                assert!(!seen[idx as usize], "two samples share word {idx}");
-                                seen[idx as usize] = true;
+                                let idx = shader_index(name, size, [i, j, k]);
+                                assert!(!seen[idx], "two samples share word {idx}");
+                                seen[idx] = true;
                             }
                         }
                     }
@@ -190,7 +226,7 @@ mod tests {
         let vol = Volume::load_nifti(&mni_path()).unwrap();
         for (name, det) in [("bcc", 4), ("fcc", 2)] {
             let l = LatticeVolume::subset(&lattice(name), &vol).unwrap();
-            let (buf, _) = l.packed().unwrap();
+            let buf = l.packed().unwrap().words;
             assert_eq!(l.samples(), expected_samples(name, vol.dims));
             // Odd dims waste at most a boundary layer per coset.
             assert!(buf.len() >= l.samples() && buf.len() < l.samples() * 103 / 100, "{name}");
@@ -209,6 +245,7 @@ mod tests {
         assert!(matches!(e, VolumeError::Packed { .. }), "{e}");
         assert!(e.to_string().contains("embedded"), "{e}");
         assert_eq!(v.packed_bytes(), 0);
+        assert_eq!(v.packed_texture_size(), None);
         // Hand-built inconsistent struct: errors, not panics.
         let bad = LatticeVolume { lattice: lattice("bcc"), dims: [4, 4, 4], data: vec![1.0; 10] };
         assert!(matches!(bad.packed(), Err(VolumeError::DataLength { .. })));

@@ -176,3 +176,29 @@ fn packed_linear_fetch_modules_pair_coset_samples() {
         assert!(n < d.references.iter().map(|r| r.stencil.len()).max().unwrap(), "{name}: no pair");
     }
 }
+
+/// Issue 26 point 3: the packed layout's exact fetch reads its samples with
+/// one `textureLoad` (naga IR: one `ImageLoad` in `<f>_fetch`, no storage
+/// read) and the module declares no storage buffer but the kernels' output,
+/// in both bounds modes, for every catalog filter with a packed layout.
+#[test]
+fn packed_exact_fetch_is_one_texture_load() {
+    use boxforge::emit::{Bounds, Layout};
+    let mut checked = 0;
+    for name in boxforge::spec::catalog::names() {
+        let d = boxforge_tests::derive(name);
+        for bounds in [Bounds::Clamp, Bounds::Unchecked] {
+            let opts = EmitOptions { layout: Layout::Packed, bounds, ..EmitOptions::default() };
+            let Ok(e) = emit(&d, &opts) else { continue };
+            let r = validate_wgsl(&e.source, &e.file_name);
+            assert!(r.valid, "{name}: {}", r.error.unwrap_or_default());
+            let fetch = r.function(&format!("{name}_fetch")).unwrap();
+            assert_eq!((fetch.image_loads, fetch.loads, fetch.total_loads), (1, 1, 1), "{name} {bounds:?}");
+            let storage: Vec<&str> = e.source.lines().filter(|l| l.contains("var<storage")).collect();
+            assert!(storage.iter().all(|l| l.contains(&format!("{name}_out:"))), "{name}: {storage:?}");
+            check_branch_free(&r, &[&format!("{name}_eval"), &format!("{name}_eval_grad")]).unwrap();
+            checked += 1;
+        }
+    }
+    assert!(checked >= 8, "{checked}");
+}

@@ -205,8 +205,9 @@ pub fn volume_limit(e: &LimitError) -> String {
             "the volume is {}x{}x{} samples, over this adapter's 3D texture limit of {max} per edge; use --layout packed, --resample or a smaller ml:N",
             dims[0], dims[1], dims[2]
         ),
-        LimitError::BufferBytes { bytes, max } => format!(
-            "the packed volume needs {bytes} bytes, over this adapter's storage buffer limit of {max} bytes; use --resample or a smaller ml:N"
+        LimitError::PackedTextureEdge { dims, texture, max } => format!(
+            "the packed volume of {}x{}x{} samples is a {}x{}x{} texture (one tile per coset), over this adapter's 3D texture limit of {max} per edge; use --resample or a smaller ml:N",
+            dims[0], dims[1], dims[2], texture[0], texture[1], texture[2]
         ),
         LimitError::MlNotWhole { .. } | LimitError::MlRange { .. } => e.to_string(),
     }
@@ -231,11 +232,12 @@ pub fn device_limit(e: &LimitError) -> String {
 /// Why uploading `vol` in `layout` fails on an adapter with `limits`, if
 /// it does: the text the CLI prints.
 pub fn volume_over_limits(vol: &LatticeVolume, layout: Layout, limits: &wgpu::Limits) -> Option<String> {
-    let (bytes, embedded) = match layout {
-        Layout::Embedded => (vol.data.len() as u64 * 4, true),
-        Layout::Packed => (vol.packed_bytes() as u64, false),
+    let texture = match layout {
+        Layout::Embedded => vol.dims,
+        // No packed layout: DeviceVolume::new says why.
+        Layout::Packed => vol.packed_texture_size()?,
     };
-    limits::check_volume_limits(vol.dims, bytes, embedded, limits).err().map(|e| device_limit(&e))
+    limits::check_volume_limits(vol.dims, texture, layout, limits).err().map(|e| device_limit(&e))
 }
 
 /// The `--cache`, `--qc` and `--qc-grad` options, checked before any GPU
