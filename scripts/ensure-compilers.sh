@@ -1,15 +1,22 @@
 #!/usr/bin/env bash
-# Makes sure the shader compilers that check `generate --target` are
-# installed: glslang (glslangValidator: GLSL, GLSL ES, and HLSL through its
-# HLSL front end) and spirv-tools (spirv-val, spirv-dis). Installs them with
-# apt when running as root; otherwise prints the exact command and fails.
+# Makes sure what checks and runs `generate --target` output is installed:
+# glslang (glslangValidator: GLSL, GLSL ES, and HLSL through its HLSL front
+# end), spirv-tools (spirv-val, spirv-dis), and Mesa's EGL and OpenGL driver
+# (libEGL_mesa, llvmpipe), on which `verify --target glsl --backend gl` runs
+# the emitted GLSL text. Installs them with apt when running as root;
+# otherwise prints the exact command and fails.
 # Source it (scripts/test.sh and scripts/demo.sh do).
-if ! command -v glslangValidator >/dev/null || ! command -v spirv-val >/dev/null; then
+boxforge_packages="glslang-tools spirv-tools libegl1 libegl-mesa0 libgl1-mesa-dri"
+have_egl_mesa() {
+    { ldconfig -p 2>/dev/null | grep -q 'libEGL_mesa.so.0'; } || ls /usr/lib/*/libEGL_mesa.so.0 >/dev/null 2>&1
+}
+if ! command -v glslangValidator >/dev/null || ! command -v spirv-val >/dev/null || ! have_egl_mesa; then
     if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null; then
-        echo "No glslangValidator or spirv-val found: installing glslang-tools and spirv-tools with apt-get..." >&2
-        apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq glslang-tools spirv-tools >/dev/null
+        echo "Installing the shader compilers and Mesa's EGL driver with apt-get ($boxforge_packages)..." >&2
+        # shellcheck disable=SC2086
+        apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $boxforge_packages >/dev/null
     else
-        echo "error: glslangValidator and spirv-val are needed to check the translated shaders. Install them, e.g.: sudo apt-get install -y glslang-tools spirv-tools" >&2
+        echo "error: glslangValidator, spirv-val and Mesa's EGL are needed to check and run the translated shaders. Install them, e.g.: sudo apt-get install -y $boxforge_packages" >&2
         exit 2
     fi
 fi

@@ -155,8 +155,13 @@ impl TargetEvaluator {
             return Err(unsupported(t.target, Runner::Gl, "only GLSL runs on the OpenGL driver"));
         }
         let lib = library(t)?;
-        if lib.contains("sampler3D") && layout == Layout::Packed {
-            return Err(unsupported(t.target, Runner::Gl, "linear fetches from the packed layout are not run on GL"));
+        let samples_linearly = t
+            .units
+            .iter()
+            .flat_map(|u| &u.bindings)
+            .any(|b| matches!(b.slot, boxforge::back::TargetSlot::CombinedWith { .. }));
+        if samples_linearly {
+            return Err(unsupported(t.target, Runner::Gl, "linear fetches (a sampler) are not run on GL"));
         }
         let context = gl::GlCompute::new()?;
         let how = format!("the GLSL text compiled by the driver: {}", context.describe());
@@ -167,8 +172,12 @@ impl TargetEvaluator {
                 data: vol.data.clone(),
             },
             Layout::Packed => {
-                let (words, size) = vol.packed().map_err(|e| unsupported(t.target, Runner::Gl, &e.to_string()))?;
-                GlSamples::Packed { words, grid: bytemuck::cast_slice(&size).to_vec() }
+                let packed = vol.packed().map_err(|e| unsupported(t.target, Runner::Gl, &e.to_string()))?;
+                GlSamples::Packed {
+                    dims: packed.texture.map(|n| n as u32),
+                    words: packed.words,
+                    grid: bytemuck::cast_slice(&packed.grid).to_vec(),
+                }
             }
         };
         Ok(TargetEvaluator { program: Program::Gl(GlProgram { context, source, samples }), how })
@@ -195,7 +204,8 @@ impl TargetEvaluator {
 #[cfg(feature = "gl-run")]
 enum GlSamples {
     Texture { dims: [u32; 3], data: Vec<f32> },
-    Packed { words: Vec<f32>, grid: Vec<u8> },
+    /// The coset tiles' texture and the `<f>_grid` uniform.
+    Packed { dims: [u32; 3], words: Vec<f32>, grid: Vec<u8> },
 }
 
 #[cfg(feature = "gl-run")]
@@ -217,8 +227,8 @@ impl GlProgram {
                 GlSamples::Texture { dims, data } => {
                     vec![gl::GlResource::Texture3d { binding: 0, dims: *dims, data, linear: false }]
                 }
-                GlSamples::Packed { words, grid } => vec![
-                    gl::GlResource::Storage { binding: 0, data: bytemuck::cast_slice(words) },
+                GlSamples::Packed { dims, words, grid } => vec![
+                    gl::GlResource::Texture3d { binding: 0, dims: *dims, data: words, linear: false },
                     gl::GlResource::Uniform { binding: 1, data: grid },
                 ],
             };
