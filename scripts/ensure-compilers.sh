@@ -8,7 +8,7 @@
 # Source it (scripts/test.sh and scripts/demo.sh do).
 boxforge_packages="glslang-tools spirv-tools libegl1 libegl-mesa0 libgl1-mesa-dri"
 have_egl_mesa() {
-    { ldconfig -p 2>/dev/null | grep -q 'libEGL_mesa.so.0'; } || ls /usr/lib/*/libEGL_mesa.so.0 >/dev/null 2>&1
+    { ldconfig -p 2>/dev/null | grep 'libEGL_mesa.so.0' >/dev/null; } || ls /usr/lib/*/libEGL_mesa.so.0 >/dev/null 2>&1
 }
 if ! command -v glslangValidator >/dev/null || ! command -v spirv-val >/dev/null || ! have_egl_mesa; then
     if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null; then

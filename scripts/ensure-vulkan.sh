@@ -3,8 +3,9 @@
 # a GPU). Installs it with apt when running as root; otherwise prints the
 # exact command and fails. Source it to also get a valid XDG_RUNTIME_DIR.
 have_vulkan() {
-    ls /usr/share/vulkan/icd.d/*.json /etc/vulkan/icd.d/*.json >/dev/null 2>&1 \
-        && { ldconfig -p 2>/dev/null | grep -q 'libvulkan.so.1' || ls /usr/lib/*/libvulkan.so.1 >/dev/null 2>&1; }
+    # Either folder may be missing: `ls` of both would fail when one is.
+    { ls /usr/share/vulkan/icd.d/*.json >/dev/null 2>&1 || ls /etc/vulkan/icd.d/*.json >/dev/null 2>&1; } \
+        && { ldconfig -p 2>/dev/null | grep 'libvulkan.so.1' >/dev/null || ls /usr/lib/*/libvulkan.so.1 >/dev/null 2>&1; }
 }
 if ! have_vulkan; then
     if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null; then

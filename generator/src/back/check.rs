@@ -70,8 +70,11 @@ fn check_text(t: &Translated, u: &Unit, text: &str) -> Result<(), BackError> {
     for b in &u.bindings {
         let lines = lines_with(code, &b.name_in_target);
         let declared = match &b.slot {
+            // Every declaration agrees: OpenGL's and, for textures, the
+            // `#ifdef VULKAN` twin's (`layout(set = G, binding = N)`).
             TargetSlot::GlBinding { binding } => {
-                lines.iter().any(|l| l.starts_with("layout(") && l.contains(&format!("binding = {binding})")))
+                let decls: Vec<&&str> = lines.iter().filter(|l| l.starts_with("layout(")).collect();
+                !decls.is_empty() && decls.iter().all(|l| l.contains(&format!("binding = {binding})")))
             }
             TargetSlot::CombinedWith { texture } => !texture.is_empty() && !lines_with(code, texture).is_empty(),
             TargetSlot::Register { register, space } => {

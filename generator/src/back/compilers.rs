@@ -98,6 +98,116 @@ fn run(by: String, cmd: &mut Command, dir: &Path) -> Outcome {
     outcome
 }
 
+/// Runs `cmd`: Ok when it succeeds, else its output.
+fn cmd_output(cmd: &mut Command) -> Result<(), String> {
+    match cmd.output() {
+        Ok(o) if o.status.success() => Ok(()),
+        Ok(o) => Err(format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr))
+            .trim()
+            .to_string()),
+        Err(e) => Err(e.to_string()),
+    }
+}
+
+/// `spirv-dis --raw-id` of a binary (numeric ids: the parse below needs no names).
+fn disassemble(spv: &Path) -> Result<String, String> {
+    let o = Command::new("spirv-dis")
+        .arg("--raw-id")
+        .arg(spv)
+        .output()
+        .map_err(|e| format!("spirv-dis ({INSTALL}): {e}"))?;
+    if !o.status.success() {
+        return Err(format!("spirv-dis: {}", String::from_utf8_lossy(&o.stderr).trim()));
+    }
+    Ok(String::from_utf8_lossy(&o.stdout).into_owned())
+}
+
+/// What an opaque (UniformConstant) descriptor of a SPIR-V module is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DescriptorKind {
+    /// `OpTypeImage` with Sampled = 1 (a WGSL `texture_*`).
+    SampledImage,
+    /// `OpTypeImage` with Sampled = 2 (a WGSL `texture_storage_*`).
+    StorageImage,
+    /// `OpTypeSampler`.
+    Sampler,
+    /// `OpTypeSampledImage`: a combined image sampler, which no WGSL binding is.
+    CombinedImageSampler,
+}
+
+/// The (set, binding, kind) of every opaque descriptor in a `spirv-dis
+/// --raw-id` listing.
+pub fn opaque_descriptors(dis: &str) -> Vec<(u32, u32, DescriptorKind)> {
+    use std::collections::HashMap;
+    let mut types: HashMap<&str, DescriptorKind> = HashMap::new();
+    let mut pointers: HashMap<&str, &str> = HashMap::new();
+    let mut variables: Vec<(&str, &str)> = Vec::new();
+    let mut sets: HashMap<&str, u32> = HashMap::new();
+    let mut bindings: HashMap<&str, u32> = HashMap::new();
+    for line in dis.lines() {
+        let w: Vec<&str> = line.split_whitespace().collect();
+        match w.as_slice() {
+            ["OpDecorate", id, "DescriptorSet", n, ..] => {
+                sets.insert(id, n.parse().unwrap_or(u32::MAX));
+            }
+            ["OpDecorate", id, "Binding", n, ..] => {
+                bindings.insert(id, n.parse().unwrap_or(u32::MAX));
+            }
+            [id, "=", "OpTypeImage", _ty, _dim, _depth, _arrayed, _ms, sampled, ..] => {
+                let kind = if *sampled == "2" { DescriptorKind::StorageImage } else { DescriptorKind::SampledImage };
+                types.insert(id, kind);
+            }
+            [id, "=", "OpTypeSampler", ..] => {
+                types.insert(id, DescriptorKind::Sampler);
+            }
+            [id, "=", "OpTypeSampledImage", ..] => {
+                types.insert(id, DescriptorKind::CombinedImageSampler);
+            }
+            [id, "=", "OpTypePointer", "UniformConstant", pointee, ..] => {
+                pointers.insert(id, pointee);
+            }
+            [id, "=", "OpVariable", ptr, "UniformConstant", ..] => variables.push((id, ptr)),
+            _ => {}
+        }
+    }
+    let mut out: Vec<(u32, u32, DescriptorKind)> = variables
+        .into_iter()
+        .filter_map(|(id, ptr)| {
+            let kind = *types.get(pointers.get(ptr)?)?;
+            Some((sets.get(id).copied().unwrap_or(0), *bindings.get(id)?, kind))
+        })
+        .collect();
+    out.sort_by_key(|&(s, b, _)| (s, b));
+    out
+}
+
+/// Every opaque descriptor of the Vulkan compile is the kind that the WGSL
+/// binding at its set and binding is, so that a host binding the WGSL
+/// layout (a sampled image, a separate sampler) matches the shader.
+pub fn check_vulkan_descriptors(dis: &str, expected: &[super::TargetBinding]) -> Result<(), String> {
+    for (set, binding, kind) in opaque_descriptors(dis) {
+        let Some(b) = expected.iter().find(|b| b.wgsl.group == set && b.wgsl.binding == binding) else {
+            return Err(format!("the Vulkan compile declares a {kind:?} at set {set} binding {binding}, which the header does not list"));
+        };
+        let want = if b.wgsl.kind.starts_with("texture_storage") {
+            DescriptorKind::StorageImage
+        } else if b.wgsl.kind.starts_with("texture") {
+            DescriptorKind::SampledImage
+        } else if b.wgsl.kind.starts_with("sampler") {
+            DescriptorKind::Sampler
+        } else {
+            return Err(format!("set {set} binding {binding} is a {kind:?} in the Vulkan compile but `{}` ({}) in WGSL", b.wgsl.name, b.wgsl.kind));
+        };
+        if kind != want {
+            return Err(format!(
+                "set {set} binding {binding} (`{}`, {}) is a {kind:?} in the Vulkan compile; a host of the WGSL layout binds a {want:?}",
+                b.wgsl.name, b.wgsl.kind
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// The harness entry point that calls the library's functions by name.
 fn harness(t: &Translated, target: Target) -> String {
     let f = &t.filter;
@@ -168,7 +278,25 @@ pub fn compile(t: &Translated, u: &Unit) -> Outcome {
             if let Err(e) = std::fs::write(&path, source) {
                 return Outcome::Failed { by, message: e.to_string() };
             }
-            run(by, Command::new("glslangValidator").arg(&path), &dir)
+            // For OpenGL first, then for Vulkan (`VULKAN` defined), where the
+            // descriptors must be the kinds a host of the WGSL layout binds.
+            let by_vulkan = format!("{by}, for Vulkan with -V");
+            let spv = dir.join("vulkan.spv");
+            match cmd_output(Command::new("glslangValidator").arg(&path)) {
+                Ok(()) => {}
+                Err(message) => {
+                    let _ = std::fs::remove_dir_all(&dir);
+                    return Outcome::Failed { by, message };
+                }
+            }
+            let checked = cmd_output(Command::new("glslangValidator").arg("-V").arg(&path).arg("-o").arg(&spv))
+                .and_then(|()| disassemble(&spv))
+                .and_then(|dis| check_vulkan_descriptors(&dis, &u.bindings));
+            let _ = std::fs::remove_dir_all(&dir);
+            match checked {
+                Ok(()) => Outcome::Compiled { by: by_vulkan },
+                Err(message) => Outcome::Failed { by: by_vulkan, message },
+            }
         }
         (Code::Text(text), Target::Hlsl | Target::Spirv) => {
             let Some(by) = glslang("HLSL front end; DXC not available") else {

@@ -25,13 +25,15 @@ pub fn header(
     );
     let use_line = match (role, target) {
         (Role::Library, Target::Glsl | Target::GlslEs) => {
-            "Library: paste or #include it after your #version line (and, for ES, before your precision-dependent code)."
+            "Library: paste or #include it right after your #version line (and, for ES, before your precision-dependent code). For OpenGL or Vulkan: compiled with VULKAN defined (glslangValidator -V), textures are texture3D at set = WGSL group, binding = WGSL binding, and samplers separate, as a host of the WGSL layout binds them."
         }
         (Role::Library, Target::Msl) => {
             "Library: #include it; Metal has no global resources, so each function that reads the samples takes them as trailing arguments (see its signature)."
         }
         (Role::Library, _) => "Library: #include it.",
-        (Role::Kernels, Target::Glsl | Target::GlslEs) => "A complete compute shader; its entry point is main.",
+        (Role::Kernels, Target::Glsl | Target::GlslEs) => {
+            "A complete compute shader; its entry point is main. For OpenGL or Vulkan (with VULKAN defined, textures and samplers are separate descriptors at set = WGSL group)."
+        }
         (Role::Kernels, _) => "Complete compute shaders.",
         (Role::Manifest, _) => {
             "The SPIR-V binaries beside this file, one compute entry point each (a library of functions alone would need the Linkage capability, which Vulkan does not take)."

@@ -103,6 +103,7 @@ fn glsl_units(p: &Prepared, target: Target) -> Result<Vec<Unit>, BackError> {
     let mut units = Vec::new();
     let file = format!("{}.{ext}", p.stem);
     let (text, reflection) = write(&p.library, &p.stub, &file)?;
+    let text = vulkan_declarations(&text, &p.library, &reflection, &file, target)?;
     let bindings = target_bindings(&p.library, &p.library_bindings, &reflection);
     let body = glsl_library_body(&text, &file, target)?;
     let functions = p.public_functions.clone();
@@ -118,6 +119,7 @@ fn glsl_units(p: &Prepared, target: Target) -> Result<Vec<Unit>, BackError> {
     for ep in p.kernel_entry_points() {
         let file = format!("{}.{}.{}", p.stem, p.kernel_short_name(&ep), if es { "es.comp" } else { "comp" });
         let (text, reflection) = write(&p.kernels, &ep, &file)?;
+        let text = vulkan_declarations(&text, &p.kernels, &reflection, &file, target)?;
         let bindings = target_bindings(&p.kernels, &p.bindings_of(&ep), &reflection);
         let entry_points = vec![ep];
         let head = header(p, target, &Role::Kernels, &[], &entry_points, &bindings);
@@ -133,6 +135,121 @@ fn glsl_units(p: &Prepared, target: Target) -> Result<Vec<Unit>, BackError> {
         });
     }
     Ok(units)
+}
+
+/// The extension that lets Vulkan GLSL `texelFetch` from a `texture3D`
+/// without a sampler.
+pub const SAMPLERLESS_EXTENSION: &str = "GL_EXT_samplerless_texture_functions";
+
+/// Declarations that hold under both GLSL APIs. naga writes OpenGL GLSL, in
+/// which every texture is a combined `sampler3D`; a Vulkan host (wgpu, or
+/// any host binding the WGSL layout) binds a sampled image and a separate
+/// sampler, and a combined image sampler in the shader would not match that
+/// descriptor type (lavapipe tolerates it, other drivers need not). So each
+/// combined declaration gets a `#ifdef VULKAN` twin (glslang defines
+/// `VULKAN` when it compiles for Vulkan, `-V`): the texture as a `texture3D`
+/// at the WGSL set and binding, and where naga combined it with a sampler,
+/// the `sampler` at its own binding and a `#define` that rebuilds the
+/// combined name with `sampler3D(texture, sampler)`, so the function bodies
+/// stay as naga wrote them. Samplerless `texelFetch` needs
+/// [`SAMPLERLESS_EXTENSION`], declared under the same `#ifdef`.
+fn vulkan_declarations(
+    text: &str,
+    v: &Validated,
+    r: &glsl::ReflectionInfo,
+    file: &str,
+    target: Target,
+) -> Result<String, BackError> {
+    let binding_of = |h: Handle<naga::GlobalVariable>| {
+        v.module.global_variables[h].binding.clone().ok_or_else(|| BackError::Check {
+            file: file.to_string(),
+            target,
+            message: format!("a texture or sampler of the combined samplers has no binding ({h:?})"),
+        })
+    };
+    let mut lines: Vec<String> = Vec::new();
+    let mut needs_samplerless = false;
+    for line in text.lines() {
+        let Some(decl) = combined_sampler_declaration(line) else {
+            lines.push(line.to_string());
+            continue;
+        };
+        let Some(mapping) = r.texture_mapping.get(decl.name) else {
+            return Err(BackError::Check {
+                file: file.to_string(),
+                target,
+                message: format!("naga declared `{}` but its reflection does not map it to a texture", decl.name),
+            });
+        };
+        let t = binding_of(mapping.texture)?;
+        let image = format!("{}texture{}", decl.prefix, decl.shape);
+        let p = decl.precision;
+        lines.push("#ifdef VULKAN".into());
+        match mapping.sampler {
+            None => {
+                needs_samplerless = true;
+                lines.push(format!(
+                    "layout(set = {}, binding = {}) uniform {p}{image} {};",
+                    t.group, t.binding, decl.name
+                ));
+            }
+            Some(sh) => {
+                let s = binding_of(sh)?;
+                let n = decl.name;
+                lines.push(format!("layout(set = {}, binding = {}) uniform {p}{image} {n}_image;", t.group, t.binding));
+                lines.push(format!("layout(set = {}, binding = {}) uniform {p}sampler {n}_sampler;", s.group, s.binding));
+                lines.push(format!(
+                    "#define {n} {}sampler{}({n}_image, {n}_sampler)",
+                    decl.prefix, decl.shape
+                ));
+            }
+        }
+        lines.push("#else".into());
+        lines.push(line.to_string());
+        lines.push("#endif".into());
+    }
+    if needs_samplerless {
+        // After #version and naga's own #extension lines, before any declaration.
+        let at = lines
+            .iter()
+            .rposition(|l| l.starts_with("#extension") || l.starts_with("#version"))
+            .map_or(0, |i| i + 1);
+        let block = ["#ifdef VULKAN".to_string(), format!("#extension {SAMPLERLESS_EXTENSION} : require"), "#endif".into()];
+        lines.splice(at..at, block);
+    }
+    let mut out = lines.join("\n");
+    if text.ends_with('\n') {
+        out.push('\n');
+    }
+    Ok(out)
+}
+
+/// One `layout(binding = N) uniform [precision ]<i|u>sampler<shape> NAME;` line of naga's GLSL.
+struct CombinedDeclaration<'a> {
+    precision: &'a str,
+    prefix: &'a str,
+    shape: &'a str,
+    name: &'a str,
+}
+
+fn combined_sampler_declaration(line: &str) -> Option<CombinedDeclaration<'_>> {
+    let rest = line.strip_prefix("layout(binding = ")?;
+    let (_, rest) = rest.split_once(") uniform ")?;
+    let rest = rest.strip_suffix(';')?;
+    let mut words: Vec<&str> = rest.split_whitespace().collect();
+    let name = words.pop()?;
+    let ty = words.pop()?;
+    let precision = match words.as_slice() {
+        [] => "",
+        [p] if ["lowp", "mediump", "highp"].contains(p) => &rest[..p.len() + 1],
+        _ => return None,
+    };
+    let at = ty.find("sampler")?;
+    let (prefix, shape) = (&ty[..at], &ty[at + "sampler".len()..]);
+    if !["", "i", "u"].contains(&prefix) || shape.is_empty() || shape.contains("Shadow") {
+        return None;
+    }
+    Some(CombinedDeclaration { precision, prefix, shape, name })
 }
 
 /// The GLSL library: naga's program for the stub entry point without what

@@ -98,6 +98,17 @@ impl TargetEvaluator {
     /// the volume layout the module was emitted for).
     pub fn vulkan(gpu: &Gpu, t: &Translated, dv: &DeviceVolume) -> Result<TargetEvaluator, TargetError> {
         let f = &t.filter;
+        if dv.filtered() && gpu.info.driver == "llvmpipe" {
+            // Mesa 22.3's lavapipe, given a separate sampler through
+            // passthrough, dies compiling naga's SPIR-V (SIGBUS) and returns
+            // values that change from run to run for glslang's (the same
+            // modules are exact through wgpu's own translation and on GL).
+            return Err(unsupported(
+                t.target,
+                Runner::Vulkan,
+                "lavapipe mishandles passthrough SPIR-V with a separate sampler (linear fetches): it crashes or returns run-to-run different values; run linear fetches with --backend gl here, or on another Vulkan driver",
+            ));
+        }
         let (words, entry, io, by) = match t.target {
             Target::Spirv => {
                 let entry = format!("{f}_eval_main");
@@ -148,21 +159,20 @@ impl TargetEvaluator {
     }
 
     /// Compiles `t` (GLSL) for the OpenGL driver over `vol` in `layout`
-    /// (exact fetches: the emitted library binds no sampler).
+    /// (linear fetches when the library combines a sampler with the texture).
     #[cfg(feature = "gl-run")]
     pub fn gl(t: &Translated, vol: &LatticeVolume, layout: Layout) -> Result<TargetEvaluator, TargetError> {
         if t.target != Target::Glsl {
             return Err(unsupported(t.target, Runner::Gl, "only GLSL runs on the OpenGL driver"));
         }
         let lib = library(t)?;
-        let samples_linearly = t
+        // Linear fetches: GL keeps the filter with the texture (naga's
+        // combined `sampler3D`), so the texture is set to filter linearly.
+        let linear = t
             .units
             .iter()
             .flat_map(|u| &u.bindings)
             .any(|b| matches!(b.slot, boxforge::back::TargetSlot::CombinedWith { .. }));
-        if samples_linearly {
-            return Err(unsupported(t.target, Runner::Gl, "linear fetches (a sampler) are not run on GL"));
-        }
         let context = gl::GlCompute::new()?;
         let how = format!("the GLSL text compiled by the driver: {}", context.describe());
         let source = mains::glsl(lib, &t.filter, mains::GlslApi::OpenGl);
@@ -170,10 +180,12 @@ impl TargetEvaluator {
             Layout::Embedded => GlSamples::Texture {
                 dims: [vol.dims[0] as u32, vol.dims[1] as u32, vol.dims[2] as u32],
                 data: vol.data.clone(),
+                linear,
             },
             Layout::Packed => {
                 let packed = vol.packed().map_err(|e| unsupported(t.target, Runner::Gl, &e.to_string()))?;
                 GlSamples::Packed {
+                    linear,
                     dims: packed.texture.map(|n| n as u32),
                     words: packed.words,
                     grid: bytemuck::cast_slice(&packed.grid).to_vec(),
@@ -203,9 +215,9 @@ impl TargetEvaluator {
 
 #[cfg(feature = "gl-run")]
 enum GlSamples {
-    Texture { dims: [u32; 3], data: Vec<f32> },
+    Texture { dims: [u32; 3], data: Vec<f32>, linear: bool },
     /// The coset tiles' texture and the `<f>_grid` uniform.
-    Packed { dims: [u32; 3], words: Vec<f32>, grid: Vec<u8> },
+    Packed { dims: [u32; 3], words: Vec<f32>, grid: Vec<u8>, linear: bool },
 }
 
 #[cfg(feature = "gl-run")]
@@ -224,11 +236,11 @@ impl GlProgram {
         for chunk in points.chunks(vulkan::POINTS_PER_DISPATCH) {
             let n = chunk.len();
             let mut resources = match &self.samples {
-                GlSamples::Texture { dims, data } => {
-                    vec![gl::GlResource::Texture3d { binding: 0, dims: *dims, data, linear: false }]
+                GlSamples::Texture { dims, data, linear } => {
+                    vec![gl::GlResource::Texture3d { binding: 0, dims: *dims, data, linear: *linear }]
                 }
-                GlSamples::Packed { dims, words, grid } => vec![
-                    gl::GlResource::Texture3d { binding: 0, dims: *dims, data: words, linear: false },
+                GlSamples::Packed { dims, words, grid, linear } => vec![
+                    gl::GlResource::Texture3d { binding: 0, dims: *dims, data: words, linear: *linear },
                     gl::GlResource::Uniform { binding: 1, data: grid },
                 ],
             };

@@ -21,7 +21,7 @@ pub struct TargetVerifyReport {
     pub report: VerifyReport,
 }
 
-/// Emits `d` in `layout`/`variant` (exact clamped fetches), translates it
+/// Emits `d` in `layout`/`variant` with clamped `fetch`es, translates it
 /// into `target`, runs it with `runner` (the wgpu device `gpu` for
 /// [`Runner::Vulkan`]; an OpenGL context of its own for [`Runner::Gl`]) at
 /// `points` random points of a random volume, and checks every value and
@@ -32,6 +32,7 @@ pub fn verify_target(
     d: &Derivation,
     layout: Layout,
     variant: Variant,
+    fetch: FetchMode,
     target: Target,
     runner: Runner,
     points: usize,
@@ -47,6 +48,7 @@ pub fn verify_target(
         layout,
         variant,
         kernels: false,
+        fetch,
         command: format!("boxforge verify --target {target}"),
         ..Default::default()
     };
@@ -57,7 +59,10 @@ pub fn verify_target(
     let vol = random_volume(d, seed);
     let (evaluator, dv) = match (runner, gpu) {
         (Runner::Vulkan, Some(gpu)) => {
-            let dv = DeviceVolume::new(gpu, &vol, layout)?;
+            let dv = match fetch {
+                FetchMode::Linear => DeviceVolume::new_filtered(gpu, &vol, layout)?,
+                FetchMode::Exact => DeviceVolume::new(gpu, &vol, layout)?,
+            };
             (TargetEvaluator::vulkan(gpu, &translated, &dv)?, Some(dv))
         }
         (Runner::Vulkan, None) => return Err(VerifyError::Emit("a Vulkan run needs a device".into())),
@@ -96,7 +101,7 @@ pub fn verify_target(
             variant,
             form: module.stats.form,
             bounds: Bounds::Clamp,
-            fetch: FetchMode::Exact,
+            fetch,
             points,
             max_abs_err: tally.max_abs,
             max_rel_grad_err: tally.max_rel,

@@ -9,6 +9,7 @@ mod cli;
 mod common;
 mod dvr;
 mod frames;
+mod gpu_bench;
 mod gpu_verify;
 mod hit;
 mod host_depth;

@@ -6,7 +6,7 @@
 
 use boxforge::back::{translate, Code, Role, Target, TranslateOptions, Translated};
 use boxforge::derive::Derivation;
-use boxforge::emit::{emit, EmitOptions, Layout, Variant};
+use boxforge::emit::{emit, EmitOptions, FetchMode, Layout, Variant};
 use boxforge_runtime::targets::gl::{GlCompute, GlResource};
 use boxforge_runtime::targets::{Runner, TargetEvaluator};
 use boxforge_runtime::verify::target::verify_target;
@@ -35,7 +35,7 @@ fn every_filter_runs_in_every_executable_target_within_tolerance() {
     for (k, d) in filters.iter().enumerate() {
         for (r, &(target, runner)) in RUNS.iter().enumerate() {
             let layout = if (k + r) % 2 == 0 { Layout::Embedded } else { Layout::Packed };
-            let t = verify_target(Some(gpu), d, layout, Variant::Fast, target, runner, 1500, 7 + k as u64)
+            let t = verify_target(Some(gpu), d, layout, Variant::Fast, FetchMode::Exact, target, runner, 1500, 7 + k as u64)
                 .unwrap_or_else(|e| panic!("{} {layout:?} {target} on {runner:?}: {e}", d.filter.name));
             let rep = &t.report;
             assert!(rep.passed, "{} {layout:?} {target} on {runner:?}: {rep:?}", d.filter.name);
@@ -44,6 +44,33 @@ fn every_filter_runs_in_every_executable_target_within_tolerance() {
         }
     }
     eprintln!("targets run: {ran}/{} (filter x target, layouts alternating)", filters.len() * RUNS.len());
+}
+
+/// Linear (hardware-filtered) fetches in both layouts: GLSL on GL (naga's
+/// combined sampler, the texture set to filter linearly). On lavapipe the
+/// passthrough runs refuse with a line naming the driver's fault, and HLSL
+/// refuses because naga's HLSL has no plain sampler register.
+#[test]
+fn linear_fetches_run_in_glsl_on_gl_and_the_other_runs_refuse_cleanly() {
+    let gpu = crate::common::gpu();
+    let get = |n: &str| Derivation::new(&boxforge::spec::resolve(n).unwrap()).unwrap();
+    let run = |d: &Derivation, layout, target, runner| {
+        verify_target(Some(gpu), d, layout, Variant::Fast, FetchMode::Linear, target, runner, 1500, 11)
+    };
+    for (d, layout) in [(get("cc_tricubic"), Layout::Embedded), (get("bcc7"), Layout::Packed)] {
+        let t = run(&d, layout, Target::Glsl, Runner::Gl)
+            .unwrap_or_else(|e| panic!("{} {layout:?} linear glsl on GL: {e}", d.filter.name));
+        assert_eq!(t.report.fetch, FetchMode::Linear);
+        assert!(t.report.passed && t.report.max_abs_err <= 1e-5 * t.report.data_range, "{:?}", t.report);
+        let e = run(&d, layout, Target::Hlsl, Runner::Vulkan).err().expect("HLSL has no linear sampler").to_string();
+        assert!(e.contains("--fetch exact"), "{e}");
+        if gpu.info.driver == "llvmpipe" {
+            for target in [Target::Spirv, Target::Glsl] {
+                let e = run(&d, layout, target, Runner::Vulkan).err().expect("refused on lavapipe").to_string();
+                assert!(e.contains("lavapipe") && e.contains("--backend gl"), "{e}");
+            }
+        }
+    }
 }
 
 fn translated(d: &Derivation, layout: Layout, target: Target) -> Translated {

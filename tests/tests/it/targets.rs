@@ -234,3 +234,51 @@ fn translation_is_deterministic_and_names_the_command_and_bindings() {
     let hlsl = back::translate(&wgsl, "bcc7.embedded", Target::Hlsl, &Default::default()).unwrap();
     assert!(hlsl.units[0].code.text().unwrap().contains("//   register(t0, space0): bcc7_volume"));
 }
+
+/// GLSL compiled for Vulkan (`VULKAN` defined) declares the descriptor kinds
+/// a host of the WGSL layout binds: a sampled image, and a separate sampler
+/// where the fetches filter; naga's OpenGL-only combined `sampler3D` would
+/// not match a wgpu (or any WGSL-layout) descriptor set.
+#[test]
+fn glsl_for_vulkan_declares_the_descriptors_a_wgsl_host_binds() {
+    use compilers::DescriptorKind::{CombinedImageSampler, SampledImage, Sampler};
+    let vulkan_descriptors = |t: &Translated| -> Vec<(u32, u32, compilers::DescriptorKind)> {
+        let dir = std::env::temp_dir().join(format!("boxforge-vk-descriptors-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let (src, spv) = (dir.join(format!("{}.comp", t.filter)), dir.join(format!("{}.spv", t.filter)));
+        let lib = t.units[0].code.text().unwrap();
+        let f = &t.filter;
+        let main = format!("layout(local_size_x = 1) in;\nvoid main() {{ float v = {f}_eval(vec3(0.5)); }}\n");
+        std::fs::write(&src, format!("#version 450 core\n{lib}{main}")).unwrap();
+        let ok = std::process::Command::new("glslangValidator").arg("-V").arg(&src).arg("-o").arg(&spv).output().unwrap();
+        assert!(ok.status.success(), "{}", String::from_utf8_lossy(&ok.stdout));
+        let dis = std::process::Command::new("spirv-dis").arg("--raw-id").arg(&spv).output().unwrap();
+        let _ = std::fs::remove_dir_all(&dir);
+        compilers::opaque_descriptors(&String::from_utf8_lossy(&dis.stdout))
+    };
+    let exact = back::translate(&bcc7_embedded(), "bcc7.embedded", Target::Glsl, &Default::default()).unwrap();
+    assert!(matches!(compilers::compile(&exact, &exact.units[0]), Outcome::Compiled { .. }));
+    assert_eq!(vulkan_descriptors(&exact), vec![(0, 0, SampledImage)]);
+
+    let d = Derivation::new(&catalog::get("cc_tricubic").unwrap()).unwrap();
+    let options = EmitOptions { layout: Layout::Packed, fetch: FetchMode::Linear, ..Default::default() };
+    let wgsl = emit(&d, &options).unwrap().source;
+    let linear = back::translate(&wgsl, "cc_tricubic.packed.linear", Target::Glsl, &Default::default()).unwrap();
+    assert!(matches!(compilers::compile(&linear, &linear.units[0]), Outcome::Compiled { .. }));
+    let sampler_binding = linear.units[0].bindings.iter().find(|b| b.wgsl.kind == "sampler").unwrap().wgsl.binding;
+    assert_eq!(vulkan_descriptors(&linear), vec![(0, 0, SampledImage), (0, sampler_binding, Sampler)]);
+
+    // Without the Vulkan twin, the OpenGL declaration reaches Vulkan: a
+    // combined image sampler, which the compile check refuses.
+    let mut combined = exact.clone();
+    replace_in_library(
+        &mut combined,
+        "#ifdef VULKAN\nlayout(set = 0, binding = 0) uniform texture3D _group_0_binding_0_cs;\n#else\n",
+        "#if 1\n",
+    );
+    assert_eq!(vulkan_descriptors(&combined), vec![(0, 0, CombinedImageSampler)]);
+    let Outcome::Failed { message, .. } = compilers::compile(&combined, &combined.units[0]) else {
+        panic!("a combined image sampler passed the Vulkan descriptor check")
+    };
+    assert!(message.contains("CombinedImageSampler") && message.contains("SampledImage"), "{message}");
+}

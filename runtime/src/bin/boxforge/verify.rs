@@ -150,10 +150,9 @@ fn run_target(
     (form, bounds, fetch): (Option<FormArg>, BoundsArg, FetchArg),
 ) -> Result<(), Failure> {
     use boxforge_runtime::targets::Runner;
-    if form.is_some() || bounds != BoundsArg::Clamp || fetch != FetchArg::Exact {
+    if form.is_some() || bounds != BoundsArg::Clamp {
         return Err(Failure(
-            "--target runs the filter's own form with clamped exact fetches: leave out --form, --bounds and --fetch"
-                .into(),
+            "--target runs the filter's own form with clamped fetches: leave out --form and --bounds".into(),
         ));
     }
     let target = boxforge::back::Target::from(target);
@@ -168,7 +167,7 @@ fn run_target(
     let layout = Layout::from(layout);
     let variant = Variant::from(variant);
     let t =
-        boxforge_runtime::verify::target::verify_target(gpu.as_ref(), d, layout, variant, target, runner, points, seed)
+        boxforge_runtime::verify::target::verify_target(gpu.as_ref(), d, layout, variant, fetch.into(), target, runner, points, seed)
             .map_err(|e| Failure(e.to_string()))?;
     let r = &t.report;
     if json {
