@@ -85,7 +85,8 @@ fn unsupported(target: Target, runner: Runner, why: &str) -> TargetError {
     }
 }
 
-fn library(t: &Translated) -> Result<&str, TargetError> {
+/// The library unit's text of a translation.
+pub fn library(t: &Translated) -> Result<&str, TargetError> {
     t.units
         .iter()
         .find(|u| u.role == Role::Library)
@@ -203,9 +204,16 @@ impl TargetEvaluator {
 
 #[cfg(feature = "gl-run")]
 enum GlSamples {
-    Texture { dims: [u32; 3], data: Vec<f32> },
+    Texture {
+        dims: [u32; 3],
+        data: Vec<f32>,
+    },
     /// The coset tiles' texture and the `<f>_grid` uniform.
-    Packed { dims: [u32; 3], words: Vec<f32>, grid: Vec<u8> },
+    Packed {
+        dims: [u32; 3],
+        words: Vec<f32>,
+        grid: Vec<u8>,
+    },
 }
 
 #[cfg(feature = "gl-run")]

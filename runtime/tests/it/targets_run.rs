@@ -13,8 +13,12 @@ use boxforge_runtime::verify::target::verify_target;
 use boxforge_runtime::verify::{data_range, random_points, random_volume, Tally};
 use boxforge_runtime::volume::DeviceVolume;
 
-const RUNS: [(Target, Runner); 4] =
-    [(Target::Spirv, Runner::Vulkan), (Target::Glsl, Runner::Vulkan), (Target::Hlsl, Runner::Vulkan), (Target::Glsl, Runner::Gl)];
+const RUNS: [(Target, Runner); 4] = [
+    (Target::Spirv, Runner::Vulkan),
+    (Target::Glsl, Runner::Vulkan),
+    (Target::Hlsl, Runner::Vulkan),
+    (Target::Glsl, Runner::Gl),
+];
 
 fn three_d_filters() -> Vec<Derivation> {
     boxforge::spec::catalog::names()
@@ -79,7 +83,8 @@ fn agrees(d: &Derivation, t: &Translated, layout: Layout, runner: Runner) -> boo
 #[test]
 fn a_broken_translation_fails_the_check() {
     let d = Derivation::new(&boxforge::spec::resolve("bcc7").unwrap()).unwrap();
-    for (target, runner) in [(Target::Glsl, Runner::Vulkan), (Target::Glsl, Runner::Gl), (Target::Hlsl, Runner::Vulkan)] {
+    for (target, runner) in [(Target::Glsl, Runner::Vulkan), (Target::Glsl, Runner::Gl), (Target::Hlsl, Runner::Vulkan)]
+    {
         let good = translated(&d, Layout::Embedded, target);
         assert!(agrees(&d, &good, Layout::Embedded, runner), "{target} on {runner:?}");
         let mut bad = good.clone();
@@ -102,17 +107,22 @@ fn a_broken_translation_fails_the_check() {
             b.wgsl.name = b.wgsl.name.replace("bcc8", "bcc7");
         }
     }
-    let renamed = other.units.iter().any(|u| matches!(u.code, Code::Words(_)) && u.entry_points.contains(&"bcc7_eval_main".to_string()));
+    let renamed = other
+        .units
+        .iter()
+        .any(|u| matches!(u.code, Code::Words(_)) && u.entry_points.contains(&"bcc7_eval_main".to_string()));
     assert!(renamed);
     // The binary still names its entry point bcc8_eval_main: give the driver that name.
     let gpu = crate::common::gpu();
     let vol = random_volume(&d, 3);
     let dv = DeviceVolume::new(gpu, &vol, Layout::Packed).unwrap();
-    let words = match &other.units.iter().find(|u| u.entry_points.contains(&"bcc7_eval_main".to_string())).unwrap().code {
+    let words = match &other.units.iter().find(|u| u.entry_points.contains(&"bcc7_eval_main".to_string())).unwrap().code
+    {
         Code::Words(w) => w.clone(),
         Code::Text(_) => unreachable!(),
     };
-    let first = other.units.iter().flat_map(|u| &u.bindings).find(|b| b.wgsl.name == "bcc7_points").unwrap().wgsl.binding;
+    let first =
+        other.units.iter().flat_map(|u| &u.bindings).find(|b| b.wgsl.name == "bcc7_points").unwrap().wgsl.binding;
     let program = boxforge_runtime::targets::vulkan::Program::new(
         gpu,
         &words,
@@ -139,7 +149,8 @@ fn a_hand_written_glsl_program_uses_the_library_by_its_header() {
     let library = t.units.iter().find(|u| u.role == Role::Library).unwrap().code.text().unwrap().to_string();
     // The header's binding line for the samples, as a user reads it:
     // `//   binding N: NAME (WGSL @group(0) @binding(0) bcc7_volume: ...`.
-    let line = library.lines().find(|l| l.contains("bcc7_volume") && l.trim_start().starts_with("//   binding")).unwrap();
+    let line =
+        library.lines().find(|l| l.contains("bcc7_volume") && l.trim_start().starts_with("//   binding")).unwrap();
     let (binding, name) = {
         let rest = line.trim_start().trim_start_matches("//   binding ");
         let (n, rest) = rest.split_once(": ").unwrap();
