@@ -293,6 +293,38 @@ mod tests {
         assert!(!row.agrees && row.note.as_deref().unwrap().contains("does not compile"), "{row:?}");
     }
 
+    /// The subsection travels with "## Generated vs hand-written": splicing
+    /// the section into a file replaces the old subsection too.
+    #[test]
+    fn the_glsl_subsection_splices_with_its_section() {
+        let row = |note: Option<&str>| GlslRivalRow {
+            filter: "bcc7".into(),
+            generated: "bcc7_eval".into(),
+            reference: "Kim & Lee bcc7 (GLSL)".into(),
+            entry: "kim_lee_bcc7".into(),
+            citation: "paper".into(),
+            compiled_by: None,
+            points: 1,
+            generated_evals_per_s: None,
+            reference_evals_per_s: None,
+            ratio: None,
+            ray_ratio: None,
+            max_abs_diff: None,
+            data_range: 1.0,
+            rel_diff: None,
+            agrees: false,
+            note: note.map(str::to_string),
+        };
+        let old = super::super::references_section(&[], &[row(Some("old note"))], None);
+        let file = format!("# B\n\n{old}## Evaluation throughput\n\nrows\n");
+        let new =
+            super::super::references_section(&[], &[row(Some("skipped: glslangValidator is not installed"))], None);
+        let out = super::super::splice_references(&file, &new);
+        assert_eq!(out.matches(HEADING).count(), 1, "{out}");
+        assert!(!out.contains("old note") && out.contains("**skipped: glslangValidator is not installed**"), "{out}");
+        assert!(out.contains("(not compiled)") && out.ends_with("## Evaluation throughput\n\nrows\n"), "{out}");
+    }
+
     #[test]
     fn both_kernel_shapes_write_one_vec4_per_point() {
         let k = kernel("float f(vec3 p) { return p.x; }\n", "f", false);

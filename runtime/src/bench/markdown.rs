@@ -88,25 +88,6 @@ pub fn splice_references(file: &str, section: &str) -> String {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_references_section_splices_in_place() {
-        let section = references_section(&[], &[], Some("Measured by `x`."));
-        assert!(section.starts_with(REFERENCES_HEADING) && section.contains("Measured by `x`.\n\nThe generated"));
-        let file = format!("# B\n\n{REFERENCES_HEADING}\n\nold table\n\n## Evaluation throughput\n\nrows\n");
-        let out = splice_references(&file, &section);
-        assert!(!out.contains("old table") && out.contains("(no references in this run)"), "{out}");
-        assert!(out.starts_with("# B\n\n") && out.ends_with("|\n\n## Evaluation throughput\n\nrows\n"), "{out}");
-        assert_eq!(splice_references(&out, &section), out, "splicing again changes nothing");
-        let last = splice_references(&format!("# B\n\n{REFERENCES_HEADING}\n\nold\n"), &section);
-        assert!(last.ends_with("|\n") && !last.contains("old"), "{last}");
-        assert!(splice_references("# B\n", &section).contains("# B\n\n## Generated"));
-    }
-}
-
 /// docs/BENCHMARKS.md from a report.
 pub fn markdown(r: &BenchReport, command: &str) -> String {
     use std::fmt::Write;
@@ -228,4 +209,23 @@ pub fn markdown(r: &BenchReport, command: &str) -> String {
         );
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_references_section_splices_in_place() {
+        let section = references_section(&[], &[], Some("Measured by `x`."));
+        assert!(section.starts_with(REFERENCES_HEADING) && section.contains("Measured by `x`.\n\nThe generated"));
+        let file = format!("# B\n\n{REFERENCES_HEADING}\n\nold table\n\n## Evaluation throughput\n\nrows\n");
+        let out = splice_references(&file, &section);
+        assert!(!out.contains("old table") && out.contains("(no references in this run)"), "{out}");
+        assert!(out.starts_with("# B\n\n") && out.ends_with("|\n\n## Evaluation throughput\n\nrows\n"), "{out}");
+        assert_eq!(splice_references(&out, &section), out, "splicing again changes nothing");
+        let last = splice_references(&format!("# B\n\n{REFERENCES_HEADING}\n\nold\n"), &section);
+        assert!(last.ends_with("|\n") && !last.contains("old"), "{last}");
+        assert!(splice_references("# B\n", &section).contains("# B\n\n## Generated"));
+    }
 }

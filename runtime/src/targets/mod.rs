@@ -73,7 +73,7 @@ pub struct TargetEvaluator {
 enum Program {
     Vulkan(vulkan::Program),
     #[cfg(feature = "gl-run")]
-    Gl(GlProgram),
+    Gl(Box<GlProgram>),
 }
 
 /// Unsupported, with the runs that do exist.
@@ -181,7 +181,7 @@ impl TargetEvaluator {
                 }
             }
         };
-        Ok(TargetEvaluator { program: Program::Gl(GlProgram { context, source, samples }), how })
+        Ok(TargetEvaluator { program: Program::Gl(Box::new(GlProgram { context, source, samples })), how })
     }
 
     /// (values, value + gradient) at every point.
