@@ -187,7 +187,9 @@ pub fn opaque_descriptors(dis: &str) -> Vec<(u32, u32, DescriptorKind)> {
 pub fn check_vulkan_descriptors(dis: &str, expected: &[super::TargetBinding]) -> Result<(), String> {
     for (set, binding, kind) in opaque_descriptors(dis) {
         let Some(b) = expected.iter().find(|b| b.wgsl.group == set && b.wgsl.binding == binding) else {
-            return Err(format!("the Vulkan compile declares a {kind:?} at set {set} binding {binding}, which the header does not list"));
+            return Err(format!(
+                "the Vulkan compile declares a {kind:?} at set {set} binding {binding}, which the header does not list"
+            ));
         };
         let want = if b.wgsl.kind.starts_with("texture_storage") {
             DescriptorKind::StorageImage
@@ -196,7 +198,10 @@ pub fn check_vulkan_descriptors(dis: &str, expected: &[super::TargetBinding]) ->
         } else if b.wgsl.kind.starts_with("sampler") {
             DescriptorKind::Sampler
         } else {
-            return Err(format!("set {set} binding {binding} is a {kind:?} in the Vulkan compile but `{}` ({}) in WGSL", b.wgsl.name, b.wgsl.kind));
+            return Err(format!(
+                "set {set} binding {binding} is a {kind:?} in the Vulkan compile but `{}` ({}) in WGSL",
+                b.wgsl.name, b.wgsl.kind
+            ));
         };
         if kind != want {
             return Err(format!(

@@ -197,11 +197,11 @@ fn vulkan_declarations(
                 let s = binding_of(sh)?;
                 let n = decl.name;
                 lines.push(format!("layout(set = {}, binding = {}) uniform {p}{image} {n}_image;", t.group, t.binding));
-                lines.push(format!("layout(set = {}, binding = {}) uniform {p}sampler {n}_sampler;", s.group, s.binding));
                 lines.push(format!(
-                    "#define {n} {}sampler{}({n}_image, {n}_sampler)",
-                    decl.prefix, decl.shape
+                    "layout(set = {}, binding = {}) uniform {p}sampler {n}_sampler;",
+                    s.group, s.binding
                 ));
+                lines.push(format!("#define {n} {}sampler{}({n}_image, {n}_sampler)", decl.prefix, decl.shape));
             }
         }
         lines.push("#else".into());
@@ -210,11 +210,10 @@ fn vulkan_declarations(
     }
     if needs_samplerless {
         // After #version and naga's own #extension lines, before any declaration.
-        let at = lines
-            .iter()
-            .rposition(|l| l.starts_with("#extension") || l.starts_with("#version"))
-            .map_or(0, |i| i + 1);
-        let block = ["#ifdef VULKAN".to_string(), format!("#extension {SAMPLERLESS_EXTENSION} : require"), "#endif".into()];
+        let at =
+            lines.iter().rposition(|l| l.starts_with("#extension") || l.starts_with("#version")).map_or(0, |i| i + 1);
+        let block =
+            ["#ifdef VULKAN".to_string(), format!("#extension {SAMPLERLESS_EXTENSION} : require"), "#endif".into()];
         lines.splice(at..at, block);
     }
     let mut out = lines.join("\n");

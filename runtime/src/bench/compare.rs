@@ -8,6 +8,7 @@ use crate::gpu::Gpu;
 use crate::references::{self, Reference};
 use crate::verify::{random_volume, Rng};
 use crate::volume::{DeviceVolume, LatticeVolume};
+use boxforge::derive::Derivation;
 use boxforge::emit::{emit, EmitOptions, FetchMode, Layout};
 
 /// Agreement required between a reference and the generated evaluation:
@@ -59,28 +60,33 @@ pub fn loads_only(module: &str, name: &str) -> Option<String> {
     ))
 }
 
+/// An n^3-ish volume of random data (at least the support-sized one of
+/// `verify`): what the generated-vs-hand-written comparisons run on.
+pub(super) fn bench_volume(d: &Derivation, n: usize) -> LatticeVolume {
+    let vol = random_volume(d, 11);
+    if vol.dims[0] >= n {
+        return vol;
+    }
+    let mut rng = Rng(17);
+    let mut data = vec![0f32; n * n * n];
+    for k in 0..n {
+        for j in 0..n {
+            for i in 0..n {
+                if d.filter.lattice.contains(&[i as i64, j as i64, k as i64]) {
+                    data[i + n * (j + n * k)] = rng.next_f64() as f32;
+                }
+            }
+        }
+    }
+    LatticeVolume { lattice: d.filter.lattice.clone(), dims: [n, n, n], data }
+}
+
 /// Times a hand-written evaluation beside the generated `<like>_eval` on the
 /// same random points of a random volume, after checking that they agree.
 pub fn compare_reference(gpu: &Gpu, r: &Reference, points: usize, rounds: usize) -> Result<ReferenceRow, BenchError> {
     let d = derive_filter(&r.like)?;
     let name = d.filter.name.clone();
-    // A 64^3-ish volume of random data (at least the support-sized one).
-    let mut vol = random_volume(&d, 11);
-    if vol.dims[0] < 64 {
-        let n = 64usize;
-        let mut rng = Rng(17);
-        let mut data = vec![0f32; n * n * n];
-        for k in 0..n {
-            for j in 0..n {
-                for i in 0..n {
-                    if d.filter.lattice.contains(&[i as i64, j as i64, k as i64]) {
-                        data[i + n * (j + n * k)] = rng.next_f64() as f32;
-                    }
-                }
-            }
-        }
-        vol = LatticeVolume { lattice: d.filter.lattice.clone(), dims: [n, n, n], data };
-    }
+    let vol = bench_volume(&d, 64);
     let pts = crate::verify::random_points(&d, &vol, points, 23);
     let (lo, hi) = vol.data.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &x| (a.min(x), b.max(x)));
     let data_range = (hi - lo).max(f32::MIN_POSITIVE) as f64;
@@ -139,21 +145,12 @@ pub fn compare_reference(gpu: &Gpu, r: &Reference, points: usize, rounds: usize)
     a.time(gpu)?;
     b.time(gpu)?;
     let (va, vb) = (a.outputs(gpu)?, b.outputs(gpu)?);
-    let max_diff = va.iter().zip(&vb).map(|(x, y)| (x[0] as f64 - y[0] as f64).abs()).fold(0f64, |m, x| {
-        if x.is_nan() || m.is_nan() {
-            f64::NAN
-        } else {
-            m.max(x)
-        }
-    });
-    let rel = max_diff / data_range;
+    let (max_diff, rel, invalid) = check(&va, &vb, data_range);
     row.max_abs_diff = Some(max_diff);
     row.rel_diff = Some(rel);
-    row.agrees = rel < REFERENCE_TOLERANCE;
-    if !row.agrees {
-        row.note = Some(format!(
-            "INVALID: max |generated - reference| = {max_diff:.3e} = {rel:.2e} of the data range (tolerance {REFERENCE_TOLERANCE:.0e}); not timed"
-        ));
+    row.agrees = invalid.is_none();
+    if invalid.is_some() {
+        row.note = invalid;
         return Ok(row);
     }
     // The ceiling of exact loads: the generated eval cut after its fetches.
@@ -186,6 +183,28 @@ pub fn compare_reference(gpu: &Gpu, r: &Reference, points: usize, rounds: usize)
     row.ray_loads_only_ratio = rates.get(5).map(|c| Ratio::of_rates(c, &rates[3]));
     row.note = shape_note(row.ratio.as_ref(), row.ray_ratio.as_ref());
     Ok(row)
+}
+
+/// The check before timing: (max |a - b| over the first components, that
+/// ÷ `data_range`, the INVALID note when it is not below
+/// [`REFERENCE_TOLERANCE`]). A NaN anywhere makes the maximum NaN (invalid).
+pub(super) fn check(a: &[[f32; 4]], b: &[[f32; 4]], data_range: f64) -> (f64, f64, Option<String>) {
+    let max_diff = a.iter().zip(b).map(|(x, y)| (x[0] as f64 - y[0] as f64).abs()).fold(0f64, |m, x| {
+        if x.is_nan() || m.is_nan() {
+            f64::NAN
+        } else {
+            m.max(x)
+        }
+    });
+    let max_diff = if a.len() == b.len() { max_diff } else { f64::NAN };
+    let rel = max_diff / data_range;
+    let agrees = rel < REFERENCE_TOLERANCE;
+    let invalid = (!agrees).then(|| {
+        format!(
+            "INVALID: max |generated - reference| = {max_diff:.3e} = {rel:.2e} of the data range (tolerance {REFERENCE_TOLERANCE:.0e}); not timed"
+        )
+    });
+    (max_diff, rel, invalid)
 }
 
 /// "kernel shapes disagree: ..." when the one-evaluation and the ray-caster

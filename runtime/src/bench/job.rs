@@ -57,6 +57,35 @@ impl Job {
             return Err(GpuError::Runtime(format!("{label}: hardware filtering needs the embedded layout")));
         }
         let shader = gpu.compile(label, source)?;
+        Job::with_shader(gpu, &shader, ("bench_main", label), sampled, dv, points)
+    }
+
+    /// A SPIR-V program run as it is (wgpu's passthrough): the volume in
+    /// set 0 as [`DeviceVolume`] binds it, the points (`vec4`, read) and the
+    /// outputs (`vec4`, one per point) at set 1, bindings 0 and 1, a
+    /// workgroup of [`crate::verify::kernel::WORKGROUP_SIZE`] in x and the
+    /// index `gid.x + gid.y * 65535 * 64`, as [`program`]'s kernel has them.
+    pub fn from_spirv(
+        gpu: &Gpu,
+        words: &[u32],
+        entry: &str,
+        label: &str,
+        dv: &DeviceVolume,
+        points: &[[f32; 4]],
+    ) -> Result<Job, GpuError> {
+        let size = crate::verify::kernel::WORKGROUP_SIZE;
+        let shader = gpu.spirv_passthrough(label, words, entry, (size, 1, 1))?;
+        Job::with_shader(gpu, &shader, (entry, label), false, dv, points)
+    }
+
+    fn with_shader(
+        gpu: &Gpu,
+        shader: &wgpu::ShaderModule,
+        (entry, label): (&str, &str),
+        sampled: bool,
+        dv: &DeviceVolume,
+        points: &[[f32; 4]],
+    ) -> Result<Job, GpuError> {
         let dev = &gpu.device;
         let mut entries0 = dv.layout_entries(0, wgpu::ShaderStages::COMPUTE);
         if sampled {
@@ -82,7 +111,7 @@ impl Job {
         });
         let layouts: Vec<&wgpu::BindGroupLayout> =
             if sampled { vec![&bgl0, &bgl_sampler, &bgl_io] } else { vec![&bgl0, &bgl_io] };
-        let pipeline = gpu.pipeline(label, &shader, &layouts, "bench_main")?;
+        let pipeline = gpu.pipeline(label, shader, &layouts, entry)?;
         let n = points.len();
         let pts = gpu.storage_buffer("points", bytemuck::cast_slice(points), false);
         let out = gpu.storage_buffer("out", &vec![0u8; n * 16], true);

@@ -4,7 +4,7 @@ use super::rows::TAG_LINEAR;
 use super::stats::{self, Ratio};
 use super::{dvr, BenchReport, REFERENCE_TOLERANCE};
 
-fn ratio_cells(r: &Option<Ratio>) -> (String, String) {
+pub(super) fn ratio_cells(r: &Option<Ratio>) -> (String, String) {
     match r {
         Some(r) => (format!("{:.2} [{:.2}..{:.2}]", r.median, r.min, r.max), if r.tie { "tie" } else { "" }.into()),
         None => (String::new(), String::new()),
@@ -14,10 +14,15 @@ fn ratio_cells(r: &Option<Ratio>) -> (String, String) {
 /// The heading of the generated-vs-hand-written section.
 pub const REFERENCES_HEADING: &str = "## Generated vs hand-written";
 
-/// The generated-vs-hand-written section (heading, method, table), ending
-/// with a blank line. `measured_by`: the line saying which separate run
-/// measured it, when it is spliced into a file written by another run.
-pub fn references_section(rows: &[super::ReferenceRow], measured_by: Option<&str>) -> String {
+/// The generated-vs-hand-written section (heading, method, table, then the
+/// GLSL subsection of `glsl` rows when there are any), ending with a blank
+/// line. `measured_by`: the line saying which separate run measured it,
+/// when it is spliced into a file written by another run.
+pub fn references_section(
+    rows: &[super::ReferenceRow],
+    glsl: &[super::glsl_rivals::GlslRivalRow],
+    measured_by: Option<&str>,
+) -> String {
     use std::fmt::Write;
     let mut s = String::new();
     let _ = writeln!(
@@ -66,6 +71,7 @@ pub fn references_section(rows: &[super::ReferenceRow], measured_by: Option<&str
         let _ = writeln!(s, "| (no references in this run) | | | | | | | | | | | | |");
     }
     s.push('\n');
+    s.push_str(&super::glsl_rivals::markdown(glsl));
     s
 }
 
@@ -79,25 +85,6 @@ pub fn splice_references(file: &str, section: &str) -> String {
     match file[after..].find("\n## ") {
         Some(k) => format!("{}{}\n{}", &file[..a], section.trim_end(), &file[after + k..]),
         None => format!("{}{}\n", &file[..a], section.trim_end()),
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_references_section_splices_in_place() {
-        let section = references_section(&[], Some("Measured by `x`."));
-        assert!(section.starts_with(REFERENCES_HEADING) && section.contains("Measured by `x`.\n\nThe generated"));
-        let file = format!("# B\n\n{REFERENCES_HEADING}\n\nold table\n\n## Evaluation throughput\n\nrows\n");
-        let out = splice_references(&file, &section);
-        assert!(!out.contains("old table") && out.contains("(no references in this run)"), "{out}");
-        assert!(out.starts_with("# B\n\n") && out.ends_with("|\n\n## Evaluation throughput\n\nrows\n"), "{out}");
-        assert_eq!(splice_references(&out, &section), out, "splicing again changes nothing");
-        let last = splice_references(&format!("# B\n\n{REFERENCES_HEADING}\n\nold\n"), &section);
-        assert!(last.ends_with("|\n") && !last.contains("old"), "{last}");
-        assert!(splice_references("# B\n", &section).contains("# B\n\n## Generated"));
     }
 }
 
@@ -115,7 +102,7 @@ pub fn markdown(r: &BenchReport, command: &str) -> String {
         "All ratios are measured in this one run: each comparison in {} interleaved rounds, the ratio taken per round; \"median [min..max]\" is over the rounds, and a range that spans 1.0 is a tie.\n",
         r.rounds
     );
-    s.push_str(&references_section(&r.references, None));
+    s.push_str(&references_section(&r.references, &r.glsl_references, None));
     let _ = writeln!(s, "## Evaluation throughput\n\n| filter | layout | variant | kind | evals/s | ratio median [min..max] | tie? | baseline | fetches | ops | sample bytes |\n|---|---|---|---|---|---|---|---|---|---|---|");
     for row in r.rows.iter().filter(|x| x.evals_per_s.is_some()) {
         let (ratio, tie) = ratio_cells(&row.ratio);
@@ -222,4 +209,23 @@ pub fn markdown(r: &BenchReport, command: &str) -> String {
         );
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_references_section_splices_in_place() {
+        let section = references_section(&[], &[], Some("Measured by `x`."));
+        assert!(section.starts_with(REFERENCES_HEADING) && section.contains("Measured by `x`.\n\nThe generated"));
+        let file = format!("# B\n\n{REFERENCES_HEADING}\n\nold table\n\n## Evaluation throughput\n\nrows\n");
+        let out = splice_references(&file, &section);
+        assert!(!out.contains("old table") && out.contains("(no references in this run)"), "{out}");
+        assert!(out.starts_with("# B\n\n") && out.ends_with("|\n\n## Evaluation throughput\n\nrows\n"), "{out}");
+        assert_eq!(splice_references(&out, &section), out, "splicing again changes nothing");
+        let last = splice_references(&format!("# B\n\n{REFERENCES_HEADING}\n\nold\n"), &section);
+        assert!(last.ends_with("|\n") && !last.contains("old"), "{last}");
+        assert!(splice_references("# B\n", &section).contains("# B\n\n## Generated"));
+    }
 }

@@ -7,12 +7,13 @@
 //! The main report lives in this folder's private files, re-exported here:
 //! options.rs (what to measure), run.rs (measuring it), job.rs (a compiled
 //! throughput kernel and interleaved timing), compare.rs (generated vs
-//! hand-written), quality.rs (accuracy and convergence), rows.rs (the
+//! hand-written; glsl_rivals.rs, its GLSL row), quality.rs (accuracy and convergence), rows.rs (the
 //! report), markdown.rs (docs/BENCHMARKS.md) and error.rs. The other modes
 //! of `boxforge bench` have their own public modules.
 
 pub mod derive;
 pub mod dvr;
+pub mod glsl_rivals;
 pub mod hit;
 pub mod literature;
 pub mod perm;

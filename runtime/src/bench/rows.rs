@@ -134,6 +134,8 @@ pub struct BenchReport {
     pub rounds: usize,
     /// Generated vs hand-written (built-in references and --wgsl).
     pub references: Vec<ReferenceRow>,
+    /// The same in GLSL: published GLSL beside the generated GLSL, both by glslang.
+    pub glsl_references: Vec<super::glsl_rivals::GlslRivalRow>,
     pub rows: Vec<BenchRow>,
     pub gradient: Vec<GradientRow>,
     pub quality: Vec<QualityRow>,

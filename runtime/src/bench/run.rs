@@ -7,7 +7,7 @@ use super::options::{check_inputs, derive_filter};
 use super::quality::{ml_angle, points_in, quality};
 use super::rows::{TAG_DENSE, TAG_LINEAR, TAG_UNCHECKED};
 use super::stats::{median, round_order, Ratio};
-use super::{dvr, hit, BenchError, BenchOptions, BenchReport, BenchRow, GradientRow, ReferenceRow};
+use super::{dvr, glsl_rivals, hit, BenchError, BenchOptions, BenchReport, BenchRow, GradientRow, ReferenceRow};
 use crate::gpu::Gpu;
 use crate::references::{self, Reference};
 use crate::render::iso::{self as render, RenderOptions};
@@ -45,6 +45,8 @@ pub fn run_with(
 ) -> Result<BenchReport, BenchError> {
     check_inputs(o)?;
     let rounds_for_snapshot = o.runs.max(1);
+    // The GLSL row (with the references), for the snapshots too.
+    let glsl_rows = std::cell::RefCell::new(Vec::new());
     let snapshot = |rows: &[BenchRow], gradient: &[GradientRow], references: &[ReferenceRow]| {
         partial(&BenchReport {
             machine: machine_info(),
@@ -52,6 +54,7 @@ pub fn run_with(
             timing: "partial run: see the complete report for the timing method".into(),
             rounds: rounds_for_snapshot,
             references: references.to_vec(),
+            glsl_references: glsl_rows.borrow().clone(),
             rows: rows.to_vec(),
             gradient: gradient.to_vec(),
             quality: vec![],
@@ -316,6 +319,21 @@ pub fn run_with(
         reference_rows.push(row);
         snapshot(&rows, &gradient, &reference_rows);
     }
+    // The same in GLSL, both sides compiled by glslang (a row that says so when it is missing).
+    for r in glsl_rivals::builtin().iter().filter(|_| o.references) {
+        progress(&format!("{} vs {}_eval in GLSL, {rounds} rounds", r.name, r.like));
+        let row = glsl_rivals::compare_glsl(gpu, r, o.points, rounds)?;
+        if !row.agrees {
+            progress(&format!(
+                "WARNING: {} vs {}_eval in GLSL: {}",
+                r.name,
+                r.like,
+                row.note.clone().unwrap_or_default()
+            ));
+        }
+        glsl_rows.borrow_mut().push(row);
+        snapshot(&rows, &gradient, &reference_rows);
+    }
     // The MNI head.
     if let Some(path) = &o.mni {
         let head = Volume::load_nifti(std::path::Path::new(path))?;
@@ -362,6 +380,7 @@ pub fn run_with(
         ),
         rounds,
         references: reference_rows,
+        glsl_references: glsl_rows.take(),
         rows,
         gradient,
         quality,

@@ -73,7 +73,7 @@ pub struct TargetEvaluator {
 enum Program {
     Vulkan(vulkan::Program),
     #[cfg(feature = "gl-run")]
-    Gl(GlProgram),
+    Gl(Box<GlProgram>),
 }
 
 /// Unsupported, with the runs that do exist.
@@ -85,7 +85,8 @@ fn unsupported(target: Target, runner: Runner, why: &str) -> TargetError {
     }
 }
 
-fn library(t: &Translated) -> Result<&str, TargetError> {
+/// The library unit's text of a translation.
+pub fn library(t: &Translated) -> Result<&str, TargetError> {
     t.units
         .iter()
         .find(|u| u.role == Role::Library)
@@ -192,7 +193,7 @@ impl TargetEvaluator {
                 }
             }
         };
-        Ok(TargetEvaluator { program: Program::Gl(GlProgram { context, source, samples }), how })
+        Ok(TargetEvaluator { program: Program::Gl(Box::new(GlProgram { context, source, samples })), how })
     }
 
     /// (values, value + gradient) at every point.
@@ -215,9 +216,18 @@ impl TargetEvaluator {
 
 #[cfg(feature = "gl-run")]
 enum GlSamples {
-    Texture { dims: [u32; 3], data: Vec<f32>, linear: bool },
+    Texture {
+        dims: [u32; 3],
+        data: Vec<f32>,
+        linear: bool,
+    },
     /// The coset tiles' texture and the `<f>_grid` uniform.
-    Packed { dims: [u32; 3], words: Vec<f32>, grid: Vec<u8>, linear: bool },
+    Packed {
+        dims: [u32; 3],
+        words: Vec<f32>,
+        grid: Vec<u8>,
+        linear: bool,
+    },
 }
 
 #[cfg(feature = "gl-run")]

@@ -23,7 +23,8 @@ fn the_gpu_script_writes_its_section_in_its_small_size() {
     let dir = std::env::temp_dir().join(format!("boxforge-gpu-bench-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let out = dir.join("BENCHMARKS.md");
-    std::fs::write(&out, "# Benchmarks\n\n## Before\n\nkept\n\n## GPU\n\nstale GPU rows\n\n## After\n\nkept too\n").unwrap();
+    std::fs::write(&out, "# Benchmarks\n\n## Before\n\nkept\n\n## GPU\n\nstale GPU rows\n\n## After\n\nkept too\n")
+        .unwrap();
     let run = Command::new("bash")
         .arg(script())
         .args(["--small", "--out"])

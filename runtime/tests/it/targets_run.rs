@@ -13,8 +13,12 @@ use boxforge_runtime::verify::target::verify_target;
 use boxforge_runtime::verify::{data_range, random_points, random_volume, Tally};
 use boxforge_runtime::volume::DeviceVolume;
 
-const RUNS: [(Target, Runner); 4] =
-    [(Target::Spirv, Runner::Vulkan), (Target::Glsl, Runner::Vulkan), (Target::Hlsl, Runner::Vulkan), (Target::Glsl, Runner::Gl)];
+const RUNS: [(Target, Runner); 4] = [
+    (Target::Spirv, Runner::Vulkan),
+    (Target::Glsl, Runner::Vulkan),
+    (Target::Hlsl, Runner::Vulkan),
+    (Target::Glsl, Runner::Gl),
+];
 
 fn three_d_filters() -> Vec<Derivation> {
     boxforge::spec::catalog::names()
@@ -35,8 +39,18 @@ fn every_filter_runs_in_every_executable_target_within_tolerance() {
     for (k, d) in filters.iter().enumerate() {
         for (r, &(target, runner)) in RUNS.iter().enumerate() {
             let layout = if (k + r) % 2 == 0 { Layout::Embedded } else { Layout::Packed };
-            let t = verify_target(Some(gpu), d, layout, Variant::Fast, FetchMode::Exact, target, runner, 1500, 7 + k as u64)
-                .unwrap_or_else(|e| panic!("{} {layout:?} {target} on {runner:?}: {e}", d.filter.name));
+            let t = verify_target(
+                Some(gpu),
+                d,
+                layout,
+                Variant::Fast,
+                FetchMode::Exact,
+                target,
+                runner,
+                1500,
+                7 + k as u64,
+            )
+            .unwrap_or_else(|e| panic!("{} {layout:?} {target} on {runner:?}: {e}", d.filter.name));
             let rep = &t.report;
             assert!(rep.passed, "{} {layout:?} {target} on {runner:?}: {rep:?}", d.filter.name);
             assert!(rep.max_abs_err <= 1e-5 * rep.data_range, "{rep:?}");
@@ -106,7 +120,8 @@ fn agrees(d: &Derivation, t: &Translated, layout: Layout, runner: Runner) -> boo
 #[test]
 fn a_broken_translation_fails_the_check() {
     let d = Derivation::new(&boxforge::spec::resolve("bcc7").unwrap()).unwrap();
-    for (target, runner) in [(Target::Glsl, Runner::Vulkan), (Target::Glsl, Runner::Gl), (Target::Hlsl, Runner::Vulkan)] {
+    for (target, runner) in [(Target::Glsl, Runner::Vulkan), (Target::Glsl, Runner::Gl), (Target::Hlsl, Runner::Vulkan)]
+    {
         let good = translated(&d, Layout::Embedded, target);
         assert!(agrees(&d, &good, Layout::Embedded, runner), "{target} on {runner:?}");
         let mut bad = good.clone();
@@ -129,17 +144,22 @@ fn a_broken_translation_fails_the_check() {
             b.wgsl.name = b.wgsl.name.replace("bcc8", "bcc7");
         }
     }
-    let renamed = other.units.iter().any(|u| matches!(u.code, Code::Words(_)) && u.entry_points.contains(&"bcc7_eval_main".to_string()));
+    let renamed = other
+        .units
+        .iter()
+        .any(|u| matches!(u.code, Code::Words(_)) && u.entry_points.contains(&"bcc7_eval_main".to_string()));
     assert!(renamed);
     // The binary still names its entry point bcc8_eval_main: give the driver that name.
     let gpu = crate::common::gpu();
     let vol = random_volume(&d, 3);
     let dv = DeviceVolume::new(gpu, &vol, Layout::Packed).unwrap();
-    let words = match &other.units.iter().find(|u| u.entry_points.contains(&"bcc7_eval_main".to_string())).unwrap().code {
+    let words = match &other.units.iter().find(|u| u.entry_points.contains(&"bcc7_eval_main".to_string())).unwrap().code
+    {
         Code::Words(w) => w.clone(),
         Code::Text(_) => unreachable!(),
     };
-    let first = other.units.iter().flat_map(|u| &u.bindings).find(|b| b.wgsl.name == "bcc7_points").unwrap().wgsl.binding;
+    let first =
+        other.units.iter().flat_map(|u| &u.bindings).find(|b| b.wgsl.name == "bcc7_points").unwrap().wgsl.binding;
     let program = boxforge_runtime::targets::vulkan::Program::new(
         gpu,
         &words,
@@ -166,7 +186,8 @@ fn a_hand_written_glsl_program_uses_the_library_by_its_header() {
     let library = t.units.iter().find(|u| u.role == Role::Library).unwrap().code.text().unwrap().to_string();
     // The header's binding line for the samples, as a user reads it:
     // `//   binding N: NAME (WGSL @group(0) @binding(0) bcc7_volume: ...`.
-    let line = library.lines().find(|l| l.contains("bcc7_volume") && l.trim_start().starts_with("//   binding")).unwrap();
+    let line =
+        library.lines().find(|l| l.contains("bcc7_volume") && l.trim_start().starts_with("//   binding")).unwrap();
     let (binding, name) = {
         let rest = line.trim_start().trim_start_matches("//   binding ");
         let (n, rest) = rest.split_once(": ").unwrap();

@@ -250,7 +250,8 @@ fn glsl_for_vulkan_declares_the_descriptors_a_wgsl_host_binds() {
         let f = &t.filter;
         let main = format!("layout(local_size_x = 1) in;\nvoid main() {{ float v = {f}_eval(vec3(0.5)); }}\n");
         std::fs::write(&src, format!("#version 450 core\n{lib}{main}")).unwrap();
-        let ok = std::process::Command::new("glslangValidator").arg("-V").arg(&src).arg("-o").arg(&spv).output().unwrap();
+        let ok =
+            std::process::Command::new("glslangValidator").arg("-V").arg(&src).arg("-o").arg(&spv).output().unwrap();
         assert!(ok.status.success(), "{}", String::from_utf8_lossy(&ok.stdout));
         let dis = std::process::Command::new("spirv-dis").arg("--raw-id").arg(&spv).output().unwrap();
         let _ = std::fs::remove_dir_all(&dir);

@@ -164,6 +164,11 @@ fn references_only(a: &BenchArgs) -> Result<(), Failure> {
         steps.step(&format!("{} vs {}_eval, {rounds} rounds", r.name, r.like));
         rows.push(bench::compare_reference(&gpu, &r, o.points, rounds)?);
     }
+    let mut glsl = Vec::new();
+    for r in bench::glsl_rivals::builtin() {
+        steps.step(&format!("{} vs {}_eval in GLSL, {rounds} rounds", r.name, r.like));
+        glsl.push(bench::glsl_rivals::compare_glsl(&gpu, &r, o.points, rounds)?);
+    }
     steps.finish();
     let measured_by = format!(
         "This section was measured by its own run, `{}` on {} ({} interleaved rounds), not by the run that wrote the rest of the file.",
@@ -171,8 +176,9 @@ fn references_only(a: &BenchArgs) -> Result<(), Failure> {
         gpu.describe(),
         rounds
     );
-    let text = bench::references_section(&rows, Some(&measured_by));
-    section.finish(&rows, &text, bench::splice_references, a.json)
+    let text = bench::references_section(&rows, &glsl, Some(&measured_by));
+    let report = serde_json::json!({ "references": rows, "glsl_references": glsl });
+    section.finish(&report, &text, bench::splice_references, a.json)
 }
 
 /// `--perm`: Lim and Shin's PERM cache against direct evaluation.

@@ -166,9 +166,18 @@ fn run_target(
     };
     let layout = Layout::from(layout);
     let variant = Variant::from(variant);
-    let t =
-        boxforge_runtime::verify::target::verify_target(gpu.as_ref(), d, layout, variant, fetch.into(), target, runner, points, seed)
-            .map_err(|e| Failure(e.to_string()))?;
+    let t = boxforge_runtime::verify::target::verify_target(
+        gpu.as_ref(),
+        d,
+        layout,
+        variant,
+        fetch.into(),
+        target,
+        runner,
+        points,
+        seed,
+    )
+    .map_err(|e| Failure(e.to_string()))?;
     let r = &t.report;
     if json {
         outln!("{}", serde_json::to_string(&t).unwrap());
