@@ -43,7 +43,7 @@ pub use params::{dvr_params, DvrParams};
 pub use renderer::{DvrLook, DvrRenderer};
 pub(crate) use scene::{caster_entries, Custom};
 pub use scene::{render, DvrScene};
-pub use skip::{empty_flags, skip_flags, widen_bounds};
+pub use skip::{empty_flags, skip_distances, skip_flags, widen_bounds};
 
 use crate::gpu::GpuError;
 use crate::render::iso::RenderOptions;
@@ -72,6 +72,8 @@ pub struct DvrOptions {
     pub perspective: bool,
     /// TF-aware empty-space skipping.
     pub skip: bool,
+    /// How far a skip jumps: by the distance map, or one block at a time.
+    pub skip_map: crate::render::blocks::SkipMap,
     /// Pre-integrated segments (else point samples with opacity correction).
     pub preintegrate: bool,
     /// Segment length in cells.
@@ -95,6 +97,7 @@ impl Default for DvrOptions {
             elevation: 25.0,
             perspective: false,
             skip: true,
+            skip_map: Default::default(),
             preintegrate: true,
             step: 0.5,
             block: 4,
@@ -117,6 +120,7 @@ impl DvrOptions {
             step: self.step,
             block: self.block,
             skip: self.skip,
+            skip_map: self.skip_map,
             ..RenderOptions::default()
         }
     }
