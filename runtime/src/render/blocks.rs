@@ -76,9 +76,8 @@ pub enum SkipMap {
     Distance,
     /// One empty block (or fine cube) at a time, as before the distance map.
     OneBlock,
-    /// Testing only: every nonzero distance one block too large, a wrong
-    /// map the skipping tests must catch.
-    #[doc(hidden)]
+    /// For tests only: every nonzero distance one block too large, a wrong
+    /// map (rays jump past surface) that the skipping tests must catch.
     Overshoot,
 }
 

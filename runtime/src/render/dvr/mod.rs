@@ -28,7 +28,11 @@
 //! when it and its neighbours within ceil(step / B) blocks are empty
 //! ([`skip_flags`]). A ray whose segment starts in a skipped block jumps over
 //! every segment starting in that block (they end in empty blocks), so the
-//! segment grid, and the image, are those of the unskipped ray.
+//! segment grid, and the image, are those of the unskipped ray. The flags
+//! the caster reads are skip distances ([`skip_distances`], from a Chebyshev
+//! distance transform of the empty blocks): a block with distance s skips
+//! the whole box of blocks within s - 1 of it in one jump
+//! ([`DvrOptions::skip_map`]: or one block at a time).
 
 pub(crate) mod caster;
 mod cpu;
