@@ -90,11 +90,15 @@ pub fn rows(gpu: &Gpu, o: &BenchOptions, rounds: usize, progress: &dyn Fn(&str))
     ];
     let mut ms = vec![vec![]; contenders.len()];
     let mut empty = 0.0;
+    let mut map = None;
     for r in 0..rounds.max(1) {
         for k in round_order(contenders.len(), r) {
             let (opts, with_pi) = &contenders[k];
             let f = scene.render_tables(&table, with_pi.then_some(&pi), opts).map_err(e)?;
             empty = f.empty_blocks;
+            if k == 0 {
+                map = f.skip_map;
+            }
             ms[k].push(f.ms_per_frame);
         }
     }
@@ -116,8 +120,21 @@ pub fn rows(gpu: &Gpu, o: &BenchOptions, rounds: usize, progress: &dyn Fn(&str))
     let row = |variant: String, k: usize, ratio: Option<Ratio>, baseline: Option<String>| {
         BenchRow::render(name, &kind, variant, median(&ms[k]), ratio, baseline)
     };
+    let map_text = map.map_or(String::new(), |m: crate::render::blocks::SkipMapStats| {
+        format!(
+            "; distance map built in {:.2} ms, {} bytes, mean jump {:.1} blocks",
+            m.build_ms, m.bytes, m.mean_distance
+        )
+    });
+    let mut first = row(
+        format!("DVR step {STEP}, pre-integrated, TF skipping ({:.0}% of blocks transparent{map_text})", empty * 100.0),
+        0,
+        None,
+        None,
+    );
+    first.bytes = map.map(|m| m.bytes);
     Ok(vec![
-        row(format!("DVR step {STEP}, pre-integrated, TF skipping ({:.0}% of blocks transparent)", empty * 100.0), 0, None, None),
+        first,
         row(
             format!("DVR step {STEP}, pre-integrated, no skipping"),
             1,

@@ -10,6 +10,7 @@ use super::stats::{median, round_order, Ratio};
 use super::{dvr, glsl_rivals, hit, BenchError, BenchOptions, BenchReport, BenchRow, GradientRow, ReferenceRow};
 use crate::gpu::Gpu;
 use crate::references::{self, Reference};
+use crate::render::blocks::{SkipMap, SkipMapStats};
 use crate::render::iso::{self as render, RenderOptions};
 use crate::verify::random_volume;
 use crate::volume::{DeviceVolume, LatticeVolume, Volume};
@@ -255,12 +256,19 @@ pub fn run_with(
         });
         // Rendering.
         for &size in &o.render_sizes {
-            progress(&format!("{name} render Marschner-Lobb {size}^2, skipping vs not, {rounds} rounds"));
-            let ro = |skip| RenderOptions { width: size, height: size, skip, frames: 1, ..RenderOptions::default() };
-            let ms = render_rounds(rounds, |skip| {
-                render::render(gpu, &d, &ml, Layout::Embedded, &ro(skip))
-                    .map(|f| f.ms_per_frame)
-                    .map_err(BenchError::from)
+            progress(&format!(
+                "{name} render Marschner-Lobb {size}^2, distance-map vs one-block skipping vs none, {rounds} rounds"
+            ));
+            let ro = |(skip, skip_map)| RenderOptions {
+                width: size,
+                height: size,
+                skip,
+                skip_map,
+                frames: 1,
+                ..RenderOptions::default()
+            };
+            let ms = render_rounds(rounds, |how| {
+                render::render(gpu, &d, &ml, Layout::Embedded, &ro(how)).map_err(BenchError::from)
             })?;
             rows.extend(render_rows(name, &format!("render_ml_{size}"), &ms));
         }
@@ -341,8 +349,10 @@ pub fn run_with(
             let d = derive_filter(name)?;
             let v = crate::scene::from_cartesian(&head, &d.filter.lattice, crate::scene::Conversion::Resample)?;
             for &size in &o.render_sizes {
-                progress(&format!("{name} render MNI {size}^2, skipping vs not, {rounds} rounds"));
-                let ro = |skip| RenderOptions {
+                progress(&format!(
+                    "{name} render MNI {size}^2, distance-map vs one-block skipping vs none, {rounds} rounds"
+                ));
+                let ro = |(skip, skip_map)| RenderOptions {
                     width: size,
                     height: size,
                     iso: 90.0,
@@ -350,13 +360,12 @@ pub fn run_with(
                     azimuth: 200.0,
                     elevation: 15.0,
                     skip,
+                    skip_map,
                     frames: 1,
                     ..RenderOptions::default()
                 };
-                let ms = render_rounds(rounds, |skip| {
-                    render::render(gpu, &d, &v, Layout::Embedded, &ro(skip))
-                        .map(|f| f.ms_per_frame)
-                        .map_err(BenchError::from)
+                let ms = render_rounds(rounds, |how| {
+                    render::render(gpu, &d, &v, Layout::Embedded, &ro(how)).map_err(BenchError::from)
                 })?;
                 rows.extend(render_rows(name, &format!("render_mni_{size}"), &ms));
             }
@@ -390,29 +399,74 @@ pub fn run_with(
 }
 
 /// Render frames with and without skipping in interleaved rounds: (skip ms, no-skip ms) per round.
+/// One round of [`render_rounds`]: ms of each contender, the distance map's stats.
+type RenderRound = ([f64; 3], Option<SkipMapStats>);
+
+/// Rendering rounds of three contenders in rotating order: skipping by the
+/// distance map, no skipping, one-block skipping (`frame` renders with
+/// (skip, map)); per round (ms of each, the distance map's stats).
 fn render_rounds(
     rounds: usize,
-    mut frame: impl FnMut(bool) -> Result<f64, BenchError>,
-) -> Result<Vec<(f64, f64)>, BenchError> {
+    mut frame: impl FnMut((bool, SkipMap)) -> Result<render::Frame, BenchError>,
+) -> Result<Vec<RenderRound>, BenchError> {
+    let how = [(true, SkipMap::Distance), (false, SkipMap::Distance), (true, SkipMap::OneBlock)];
     let mut out = Vec::new();
     for r in 0..rounds.max(1) {
-        let mut t = [0.0; 2];
-        for k in round_order(2, r) {
-            t[k] = frame(k == 0)?;
+        let mut t = [0.0; 3];
+        let mut map = None;
+        for k in round_order(3, r) {
+            let f = frame(how[k])?;
+            t[k] = f.ms_per_frame;
+            if k == 0 {
+                map = f.skip_map;
+            }
         }
-        out.push((t[0], t[1]));
+        out.push((t, map));
     }
     Ok(out)
 }
 
-fn render_rows(name: &str, kind: &str, ms: &[(f64, f64)]) -> Vec<BenchRow> {
-    let skip: Vec<f64> = ms.iter().map(|m| m.0).collect();
-    let noskip: Vec<f64> = ms.iter().map(|m| m.1).collect();
-    let ratio = Ratio::of_rates(&noskip, &skip);
-    let row = |variant: &str, ms: f64, ratio: Option<Ratio>| {
-        BenchRow::render(name, kind, variant.into(), ms, ratio, ratio.map(|_| "no skipping ÷ skipping (time)".into()))
+/// The rows of [`render_rounds`]: skipping by the distance map (its build
+/// time and size in the variant, its bytes in `bytes`), no skipping ÷ that,
+/// and one-block skipping ÷ that.
+fn render_rows(name: &str, kind: &str, ms: &[RenderRound]) -> Vec<BenchRow> {
+    let col = |k: usize| -> Vec<f64> { ms.iter().map(|m| m.0[k]).collect() };
+    let (skip, noskip, one) = (col(0), col(1), col(2));
+    let map = ms.iter().find_map(|m| m.1);
+    let builds: Vec<f64> = ms.iter().filter_map(|m| m.1.map(|s| s.build_ms)).collect();
+    let row = |variant: String, ms: f64, ratio: Option<Ratio>, baseline: &str| {
+        BenchRow::render(name, kind, variant, ms, ratio, ratio.map(|_| baseline.into()))
     };
-    vec![row("fast, skipping", median(&skip), None), row("fast, no skipping", median(&noskip), Some(ratio))]
+    let mut first = row(
+        match map {
+            Some(m) => format!(
+                "fast, skipping by distance map (built in {:.2} ms, {} bytes, mean jump {:.1} blocks)",
+                median(&builds),
+                m.bytes,
+                m.mean_distance
+            ),
+            None => "fast, skipping".into(),
+        },
+        median(&skip),
+        None,
+        "",
+    );
+    first.bytes = map.map(|m| m.bytes);
+    vec![
+        first,
+        row(
+            "fast, no skipping".into(),
+            median(&noskip),
+            Some(Ratio::of_rates(&noskip, &skip)),
+            "no skipping ÷ skipping (time)",
+        ),
+        row(
+            "fast, one-block skipping".into(),
+            median(&one),
+            Some(Ratio::of_rates(&one, &skip)),
+            "one-block ÷ distance-map skipping (time)",
+        ),
+    ]
 }
 
 /// CPU model, cores, OS and architecture.

@@ -10,3 +10,29 @@ pub fn gpu() -> &'static Gpu {
     static GPU: OnceLock<Gpu> = OnceLock::new();
     GPU.get_or_init(|| Gpu::new(None).unwrap_or_else(|e| panic!("{e}")))
 }
+
+/// A sparse scene for empty-space skipping: two balls of radius 10 (a cone
+/// profile, 1 at the centre, 0.5 on the sphere of radius 5, 0 outside)
+/// in an `n`^3 Cartesian volume that is zero elsewhere, so most blocks are
+/// empty and many lie several blocks from the nearest occupied one.
+pub fn sparse_balls(n: usize) -> boxforge_runtime::volume::Volume {
+    let f = n as f64;
+    let centres = [[0.3 * f, 0.32 * f, 0.35 * f], [0.7 * f, 0.66 * f, 0.62 * f]];
+    let mut data = Vec::with_capacity(n * n * n);
+    for z in 0..n {
+        for y in 0..n {
+            for x in 0..n {
+                let p = [x as f64, y as f64, z as f64];
+                let v = centres
+                    .iter()
+                    .map(|c| {
+                        let r = ((p[0] - c[0]).powi(2) + (p[1] - c[1]).powi(2) + (p[2] - c[2]).powi(2)).sqrt();
+                        (1.0 - r / 10.0).max(0.0)
+                    })
+                    .fold(0.0, f64::max);
+                data.push(v as f32);
+            }
+        }
+    }
+    boxforge_runtime::volume::Volume::new([n, n, n], data).unwrap()
+}

@@ -5,6 +5,7 @@
 use boxforge::derive::Derivation;
 use boxforge::emit::Layout;
 use boxforge_runtime::gpu::Gpu;
+use boxforge_runtime::render::blocks::SkipMap;
 use boxforge_runtime::render::dvr::transfer::TransferFunction;
 use boxforge_runtime::render::dvr::{cpu_render, rms, DvrOptions, DvrScene};
 use boxforge_runtime::volume::{LatticeVolume, Volume};
@@ -271,6 +272,12 @@ fn skipping_keeps_a_surface_that_starts_right_past_an_empty_block() {
         assert!(e < 0.5, "pre-integrated {preintegrate}: skipping changed the image, RMS {e:.2}/255");
         let e = rms(&skip.rgba, &cpu_render(&d, &vol, &tf, &o));
         assert!(e < 2.0, "pre-integrated {preintegrate}: RMS {e:.2}/255 against the CPU reference");
+        // The comparison can fail: a skip map one block too far (the block
+        // [0, 4) jumping over [4, 8) too) drops the segments that reach the rise.
+        let wrong = scene.render(&tf, &DvrOptions { skip_map: SkipMap::Overshoot, ..o.clone() }).unwrap();
+        let e = rms(&wrong.rgba, &no_skip.rgba);
+        eprintln!("pre-integrated {preintegrate}: a map one block too far, RMS {e:.2}/255");
+        assert!(e >= 0.5, "pre-integrated {preintegrate}: a wrong skip map went unnoticed (RMS {e:.3}/255)");
     }
 }
 
@@ -305,4 +312,41 @@ fn the_default_ramp_spans_the_data_and_rises_from_transparent() {
     // A constant volume still gets a usable (non-empty) range.
     let flat = TransferFunction::ramp(3.0, 3.0);
     assert!(flat.range[1] > flat.range[0]);
+}
+
+#[test]
+fn distance_skipping_keeps_the_dvr_image_and_a_map_one_block_too_far_is_caught() {
+    let gpu = gpu();
+    let d = derive("cc_trilinear");
+    let vol = LatticeVolume::subset(&d.filter.lattice, &crate::common::sparse_balls(48)).unwrap();
+    let tf = TransferFunction::parse(
+        r#"{"range": [0, 1], "points": [{"value": 0, "color": [0, 0, 0], "opacity": 0},
+            {"value": 0.05, "color": [0, 0, 0], "opacity": 0}, {"value": 0.1, "color": [1, 0.5, 0.2], "opacity": 0.9}, {"value": 1, "color": [1, 1, 1], "opacity": 0.9}]}"#,
+        "balls.json",
+    )
+    .unwrap();
+    let scene = DvrScene::new(gpu, &d, &vol, Layout::Embedded, 4).unwrap();
+    for (step, perspective) in [(2.0, false), (1.0, true), (0.5, false)] {
+        let o = DvrOptions { width: 64, height: 64, step, perspective, frames: 0, ..DvrOptions::default() };
+        let no_skip = scene.render(&tf, &DvrOptions { skip: false, ..o.clone() }).unwrap();
+        let with = |skip_map| scene.render(&tf, &DvrOptions { skip_map, ..o.clone() }).unwrap();
+        let f = with(SkipMap::Distance);
+        let map = f.skip_map.expect("a skip map");
+        let (e, one, wrong) = (
+            rms(&f.rgba, &no_skip.rgba),
+            rms(&with(SkipMap::OneBlock).rgba, &no_skip.rgba),
+            rms(&with(SkipMap::Overshoot).rgba, &no_skip.rgba),
+        );
+        eprintln!(
+            "step {step}: RMS distance {e:.3}, one block {one:.3}, overshoot {wrong:.3}; {:.0}% empty, mean skip {:.2}",
+            f.empty_blocks * 100.0,
+            map.mean_distance
+        );
+        assert!(covered(&f.rgba) > 0.03, "the balls are in view");
+        assert!(f.empty_blocks > 0.8 && map.mean_distance > 2.0, "the jumps span several blocks");
+        assert!(e < 0.5 && one < 0.5, "step {step}: skipping changed the image: RMS {e:.3} / {one:.3}");
+        // Here the wrongly skipped segments reach little opacity (see the
+        // next test for one that the comparison catches).
+        assert!(wrong > 0.0, "step {step}: a map one block too far changes the image");
+    }
 }

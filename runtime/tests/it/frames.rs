@@ -57,7 +57,14 @@ fn options(camera: &Camera) -> DvrOptions {
 }
 
 fn look(o: &DvrOptions) -> DvrLook {
-    DvrLook { step: o.step, block: o.block, skip: o.skip, preintegrate: o.preintegrate, termination: o.termination }
+    DvrLook {
+        step: o.step,
+        block: o.block,
+        skip: o.skip,
+        skip_map: o.skip_map,
+        preintegrate: o.preintegrate,
+        termination: o.termination,
+    }
 }
 
 /// A host's colour target: render attachment, and copy source to read it back.

@@ -63,3 +63,33 @@ fn exact_walk_matches_its_cpu_reference_on_marschner_lobb_with_and_without_skipp
         }
     }
 }
+
+#[test]
+fn exact_walk_with_the_distance_map_keeps_every_hit_and_a_wrong_map_loses_some() {
+    use boxforge_runtime::render::blocks::SkipMap;
+    let gpu = crate::common::gpu();
+    let d = derive("cc_tricubic");
+    let ml = LatticeVolume::marschner_lobb(&d.filter.lattice, [28; 3]).unwrap();
+    let sparse = LatticeVolume::subset(&d.filter.lattice, &crate::common::sparse_balls(48)).unwrap();
+    for (what, vol) in [("Marschner-Lobb", &ml), ("sparse", &sparse)] {
+        let o = exact(&RenderOptions { width: 64, height: 64, frames: 1, ..RenderOptions::default() });
+        let (_, reference) =
+            render_with_depth(gpu, &d, vol, Layout::Embedded, &RenderOptions { skip: false, ..o.clone() }).unwrap();
+        for map in [SkipMap::Distance, SkipMap::OneBlock, SkipMap::Overshoot] {
+            let (_, depth) =
+                render_with_depth(gpu, &d, vol, Layout::Embedded, &RenderOptions { skip_map: map, ..o.clone() })
+                    .unwrap();
+            let m = misses(&reference, &depth);
+            let dt = max_depth_diff(&reference, &depth);
+            eprintln!("{what} {map:?}: {m:?}, depth {dt}");
+            assert!(m.reference_hits > 50, "{what}: the surface is in view");
+            let same = m.missed + m.extra == 0 && dt < 1e-3;
+            if map == SkipMap::Overshoot {
+                // The check below can fail: a map one block too far loses hits.
+                assert!(m.missed > 0 && !same, "{what}: a wrong distance map went unnoticed: {m:?}, depth {dt}");
+            } else {
+                assert!(same, "{what} {map:?}: the skipping changed the hits: {m:?}, depth {dt}");
+            }
+        }
+    }
+}

@@ -82,3 +82,50 @@ fn block_bounds_contain_the_spline() {
         assert!(mismatch <= 0.01, "{name}: {mismatch}");
     }
 }
+
+/// The image of `o` with skipping by the distance map, one block at a time,
+/// and (testing) a map one block too far, each against no skipping:
+/// (mismatch, shading) as [`compare`] gives them.
+fn skip_modes(
+    gpu: &Gpu,
+    d: &Derivation,
+    vol: &LatticeVolume,
+    o: &RenderOptions,
+) -> [((f64, f64), boxforge_runtime::render::iso::Frame); 3] {
+    use boxforge_runtime::render::blocks::SkipMap;
+    let no_skip = render(gpu, d, vol, Layout::Embedded, &RenderOptions { skip: false, ..o.clone() }).unwrap();
+    [SkipMap::Distance, SkipMap::OneBlock, SkipMap::Overshoot].map(|skip_map| {
+        let f = render(gpu, d, vol, Layout::Embedded, &RenderOptions { skip_map, ..o.clone() }).unwrap();
+        (compare(&f.rgba, &no_skip.rgba), f)
+    })
+}
+
+#[test]
+fn distance_skipping_keeps_the_image_and_a_map_one_block_too_far_is_caught() {
+    // Marschner-Lobb (dense: short jumps) and two small balls in an empty
+    // volume (sparse: jumps over boxes of many blocks), fixed steps.
+    let gpu = crate::common::gpu();
+    let d = Derivation::new(&boxforge::spec::catalog::get("cc_tricubic").unwrap()).unwrap();
+    let ml = LatticeVolume::marschner_lobb(&d.filter.lattice, [36; 3]).unwrap();
+    let sparse = LatticeVolume::subset(&d.filter.lattice, &crate::common::sparse_balls(48)).unwrap();
+    for (what, vol, perspective) in
+        [("Marschner-Lobb", &ml, false), ("sparse", &sparse, true), ("sparse", &sparse, false)]
+    {
+        let o = RenderOptions { width: 64, height: 64, frames: 1, perspective, ..RenderOptions::default() };
+        let [(exact, f), (one, _), (wrong, _)] = skip_modes(gpu, &d, vol, &o);
+        let map = f.skip_map.expect("a distance map");
+        eprintln!(
+            "{what} (perspective {perspective}): distance {exact:?}, one block {one:?}, overshoot {wrong:?}; \
+             {:.0}% empty, mean skip distance {:.2}",
+            f.empty_blocks * 100.0,
+            map.mean_distance
+        );
+        assert!(exact.0 <= 0.01 && exact.1 < 1.0, "{what}: distance skipping changed the image: {exact:?}");
+        assert!(one.0 <= 0.01 && one.1 < 1.0, "{what}: one-block skipping changed the image: {one:?}");
+        // The comparison can fail: a map one block too far skips surface.
+        assert!(!(wrong.0 <= 0.01 && wrong.1 < 1.0), "{what}: a wrong distance map went unnoticed: {wrong:?}");
+        if what == "sparse" {
+            assert!(f.empty_blocks > 0.8 && map.mean_distance > 2.0, "{what}: the jumps span several blocks");
+        }
+    }
+}

@@ -11,7 +11,7 @@
 //! the view's plane stack, all laid out on this core's two groups.
 
 use super::params::{dvr_params_for, DvrParams};
-use super::skip::{empty_flags, skip_flags};
+use super::skip::{empty_flags, skip_distances};
 use super::transfer::{Preint, Tf1d};
 use super::{DvrLook, DvrOptions};
 use crate::gpu::timing::timed_banded_frames;
@@ -56,6 +56,7 @@ pub(crate) struct DvrCaster {
     table: Tf1d,
     pi_size: usize,
     empty_blocks: f64,
+    skip_map: crate::render::blocks::SkipMapStats,
     samples_layout: wgpu::BindGroupLayout,
     samples: wgpu::BindGroup,
     layout: wgpu::BindGroupLayout,
@@ -90,7 +91,8 @@ impl DvrCaster {
         let empty = empty_flags(&parts.bounds, &table);
         let empty_blocks = empty.iter().filter(|&&f| f != 0).count() as f64 / empty.len().max(1) as f64;
         let blocks = crate::render::blocks::blocks_per_axis(parts.dims, look.block);
-        let flags = skip_flags(&empty, blocks, (look.step / look.block as f32).ceil() as i32);
+        let (flags, skip_map) =
+            skip_distances(&empty, blocks, (look.step / look.block as f32).ceil() as i32, look.skip_map);
         let pi_entries: Vec<[f32; 4]> = pi.map_or_else(|| vec![[0.0; 4]; 4], |p| p.entries.clone());
         let label = parts.label;
         Ok(DvrCaster {
@@ -101,6 +103,7 @@ impl DvrCaster {
             dims: parts.dims,
             pi_size: pi.map_or(2, |p| p.size),
             empty_blocks,
+            skip_map,
             samples_layout: parts.samples.0,
             samples: parts.samples.1,
             layout: parts.layout,
@@ -138,6 +141,7 @@ impl DvrCaster {
             elevation: camera.elevation,
             perspective: camera.perspective,
             skip: l.skip,
+            skip_map: l.skip_map,
             preintegrate: l.preintegrate,
             step: l.step,
             block: l.block,
@@ -214,7 +218,14 @@ impl DvrCaster {
         let words: Vec<u32> = bytemuck::cast_slice(&self.gpu.read_buffer(&frame.image)?).to_vec();
         let rgba = words.iter().flat_map(|w| w.to_le_bytes()).collect();
         let ms_per_frame = if times.is_empty() { f64::NAN } else { times[times.len() / 2] };
-        Ok(Frame { width: o.width, height: o.height, rgba, ms_per_frame, empty_blocks: self.empty_blocks })
+        Ok(Frame {
+            width: o.width,
+            height: o.height,
+            rgba,
+            ms_per_frame,
+            empty_blocks: self.empty_blocks,
+            skip_map: Some(self.skip_map),
+        })
     }
 
     /// The image and the group-1 bind group for a `width` x `height` frame
@@ -251,5 +262,12 @@ impl DvrCaster {
 
 /// The look of one-shot options `o`.
 pub(crate) fn look_of(o: &DvrOptions) -> DvrLook {
-    DvrLook { step: o.step, block: o.block, skip: o.skip, preintegrate: o.preintegrate, termination: o.termination }
+    DvrLook {
+        step: o.step,
+        block: o.block,
+        skip: o.skip,
+        skip_map: o.skip_map,
+        preintegrate: o.preintegrate,
+        termination: o.termination,
+    }
 }

@@ -28,7 +28,11 @@
 //! when it and its neighbours within ceil(step / B) blocks are empty
 //! ([`skip_flags`]). A ray whose segment starts in a skipped block jumps over
 //! every segment starting in that block (they end in empty blocks), so the
-//! segment grid, and the image, are those of the unskipped ray.
+//! segment grid, and the image, are those of the unskipped ray. The flags
+//! the caster reads are skip distances ([`skip_distances`], from a Chebyshev
+//! distance transform of the empty blocks): a block with distance s skips
+//! the whole box of blocks within s - 1 of it in one jump
+//! ([`DvrOptions::skip_map`]: or one block at a time).
 
 pub(crate) mod caster;
 mod cpu;
@@ -43,7 +47,7 @@ pub use params::{dvr_params, DvrParams};
 pub use renderer::{DvrLook, DvrRenderer};
 pub(crate) use scene::{caster_entries, Custom};
 pub use scene::{render, DvrScene};
-pub use skip::{empty_flags, skip_flags, widen_bounds};
+pub use skip::{empty_flags, skip_distances, skip_flags, widen_bounds};
 
 use crate::gpu::GpuError;
 use crate::render::iso::RenderOptions;
@@ -72,6 +76,8 @@ pub struct DvrOptions {
     pub perspective: bool,
     /// TF-aware empty-space skipping.
     pub skip: bool,
+    /// How far a skip jumps: by the distance map, or one block at a time.
+    pub skip_map: crate::render::blocks::SkipMap,
     /// Pre-integrated segments (else point samples with opacity correction).
     pub preintegrate: bool,
     /// Segment length in cells.
@@ -95,6 +101,7 @@ impl Default for DvrOptions {
             elevation: 25.0,
             perspective: false,
             skip: true,
+            skip_map: Default::default(),
             preintegrate: true,
             step: 0.5,
             block: 4,
@@ -117,6 +124,7 @@ impl DvrOptions {
             step: self.step,
             block: self.block,
             skip: self.skip,
+            skip_map: self.skip_map,
             ..RenderOptions::default()
         }
     }

@@ -11,7 +11,7 @@
 //! and the frame is premultiplied colour and opacity over the host's colour.
 
 use super::params::{dvr_params_for, DvrParams};
-use super::skip::{empty_flags, skip_flags};
+use super::skip::{empty_flags, skip_distances};
 use super::transfer::TransferFunction;
 use super::{dvr_template_with, filter_module, DvrOptions};
 use crate::gpu::binding::layout_entries_from;
@@ -33,6 +33,8 @@ pub struct DvrLook {
     pub block: i32,
     /// Transfer-function-aware empty-space skipping.
     pub skip: bool,
+    /// How far a skip jumps (the distance map, or one block).
+    pub skip_map: crate::render::blocks::SkipMap,
     /// Pre-integrated segments (else point samples).
     pub preintegrate: bool,
     /// Early ray termination opacity.
@@ -42,7 +44,7 @@ pub struct DvrLook {
 impl Default for DvrLook {
     fn default() -> Self {
         let o = DvrOptions::default();
-        DvrLook { step: o.step, block: o.block, skip: o.skip, preintegrate: o.preintegrate, termination: o.termination }
+        super::caster::look_of(&o)
     }
 }
 
@@ -55,6 +57,7 @@ pub struct DvrRenderer {
     table: super::transfer::Tf1d,
     pi_size: usize,
     empty_blocks: f64,
+    skip_map: crate::render::blocks::SkipMapStats,
     pipeline: wgpu::ComputePipeline,
     caster_layout: wgpu::BindGroupLayout,
     /// The shader's bindings table (what its bind groups are built from).
@@ -95,7 +98,7 @@ impl DvrRenderer {
         let empty_blocks = empty.iter().filter(|&&f| f != 0).count() as f64 / empty.len().max(1) as f64;
         let blocks = crate::render::blocks::blocks_per_axis(volume.dims, look.block);
         let radius = (look.step / look.block as f32).ceil() as i32;
-        let flags = skip_flags(&empty, blocks, radius);
+        let (flags, skip_map) = skip_distances(&empty, blocks, radius, look.skip_map);
         let pi_entries: Vec<[f32; 4]> = pi.as_ref().map_or_else(|| vec![[0.0; 4]; 4], |p| p.entries.clone());
         let dev = &gpu.device;
         let samples_layout = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -119,6 +122,7 @@ impl DvrRenderer {
             dims: volume.dims,
             pi_size: pi.as_ref().map_or(2, |p| p.size),
             empty_blocks,
+            skip_map,
             pipeline,
             caster_layout,
             bindings,
@@ -138,6 +142,11 @@ impl DvrRenderer {
     /// The fraction of blocks the transfer function leaves transparent.
     pub fn empty_blocks(&self) -> f64 {
         self.empty_blocks
+    }
+
+    /// The skipping map's build time and size.
+    pub fn skip_map_stats(&self) -> crate::render::blocks::SkipMapStats {
+        self.skip_map
     }
 
     /// Records one frame into `encoder`: the DVR ray caster, then the image

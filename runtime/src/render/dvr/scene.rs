@@ -1,6 +1,6 @@
 //! A volume on the device ready for DVR, and its ray caster.
 
-use super::{dvr_params, empty_flags, shader_source, skip_flags, widen_bounds, DvrOptions, DvrParams};
+use super::{dvr_params, empty_flags, shader_source, skip_distances, widen_bounds, DvrOptions, DvrParams};
 use crate::gpu::binding::{storage_entry, uniform_entry};
 use crate::gpu::{Gpu, GpuError};
 use crate::render::blocks::block_bounds;
@@ -121,7 +121,8 @@ impl<'a> DvrScene<'a> {
         let empty_blocks = empty_flags(&self.bounds, table);
         let empty = empty_blocks.iter().filter(|&&f| f != 0).count() as f64 / empty_blocks.len().max(1) as f64;
         let radius = (o.step / self.block as f32).ceil() as i32;
-        let flags = skip_flags(&empty_blocks, [params.blocks[0], params.blocks[1], params.blocks[2]], radius);
+        let (flags, skip_map) =
+            skip_distances(&empty_blocks, [params.blocks[0], params.blocks[1], params.blocks[2]], radius, o.skip_map);
         let pi_entries: Vec<[f32; 4]> = pi.map_or_else(|| vec![[0.0; 4]; 4], |p| p.entries.clone());
         let pixels = (o.width * o.height) as usize;
         let params_buf = gpu.uniform_buffer("dvr params", bytemuck::bytes_of(&params));
@@ -150,7 +151,14 @@ impl<'a> DvrScene<'a> {
         let words: Vec<u32> = bytemuck::cast_slice(&gpu.read_buffer(&image)?).to_vec();
         let rgba = words.iter().flat_map(|w| w.to_le_bytes()).collect();
         let ms = if times.is_empty() { f64::NAN } else { times[times.len() / 2] };
-        Ok(Frame { width: o.width, height: o.height, rgba, ms_per_frame: ms, empty_blocks: empty })
+        Ok(Frame {
+            width: o.width,
+            height: o.height,
+            rgba,
+            ms_per_frame: ms,
+            empty_blocks: empty,
+            skip_map: Some(skip_map),
+        })
     }
 }
 

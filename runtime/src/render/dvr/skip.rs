@@ -2,6 +2,7 @@
 //! transparent, which of them a segment may jump over, and block bounds
 //! widened for functions that reach beyond a block.
 
+use crate::render::blocks::{skip_map, SkipMap, SkipMapStats};
 use crate::render::dvr::transfer::Tf1d;
 
 /// Per-block flags (1 = every value in the block maps to zero opacity) from
@@ -30,6 +31,18 @@ pub fn skip_flags(empty: &[u32], blocks: [i32; 3], radius: i32) -> Vec<u32> {
         }
     }
     f
+}
+
+/// The skipping map of the DVR caster (templates/dvr.wgsl.j2, `_dflags`):
+/// per block, s = (Chebyshev distance to the nearest non-empty block) -
+/// `radius`, at least 0. Where s > 0 the block is skipped (s > 0 exactly
+/// where [`skip_flags`] is 1), and so is every block of the box of
+/// half-width s - 1 around it: each block of that box and every block
+/// within `radius` of it are empty, so a ray jumps over every segment that
+/// starts in the box. `map` picks the distances, one block at a time, or
+/// (testing) a wrong map.
+pub fn skip_distances(empty: &[u32], blocks: [i32; 3], radius: i32, map: SkipMap) -> (Vec<u32>, SkipMapStats) {
+    skip_map(empty, blocks, radius.max(0) as u32, map)
 }
 
 /// Block bounds from cell bounds (`cells`, one per unit cube of `dims`, x
@@ -111,5 +124,28 @@ mod tests {
         assert_eq!(skip_flags(&empty, [5, 1, 1], 2), [0, 0, 0, 0, 0]);
         // Along z in a 1 x 1 x 3 grid, and clamped at the faces.
         assert_eq!(skip_flags(&[1, 1, 0], [1, 1, 3], 1), [1, 0, 0]);
+    }
+
+    #[test]
+    fn skip_distances_skip_where_the_flags_do() {
+        let b = [8, 6, 5];
+        let n = (b[0] * b[1] * b[2]) as usize;
+        let empty: Vec<u32> = (0..n).map(|i| ((i * 7919) % 61 != 0) as u32).collect();
+        for r in 0..4 {
+            let (d, _) = skip_distances(&empty, b, r, SkipMap::Distance);
+            let flags: Vec<u32> = d.iter().map(|&v| (v > 0) as u32).collect();
+            assert_eq!(flags, skip_flags(&empty, b, r), "radius {r}");
+            // Every block of the box of half-width s - 1 is skipped with the flags of radius r.
+            let f = skip_flags(&empty, b, r);
+            for (i, &s) in d.iter().enumerate() {
+                let p = [i as i32 % b[0], (i as i32 / b[0]) % b[1], i as i32 / (b[0] * b[1])];
+                for (j, &fj) in f.iter().enumerate() {
+                    let q = [j as i32 % b[0], (j as i32 / b[0]) % b[1], j as i32 / (b[0] * b[1])];
+                    if s > 0 && (0..3).all(|a| (p[a] - q[a]).abs() < s as i32) {
+                        assert_eq!(fj, 1, "radius {r}: block {q:?} in the box of {p:?} (s {s})");
+                    }
+                }
+            }
+        }
     }
 }

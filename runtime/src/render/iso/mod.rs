@@ -28,6 +28,8 @@ pub struct RenderOptions {
     pub perspective: bool,
     /// Empty-space skipping with the min/max block grid.
     pub skip: bool,
+    /// How far a skip jumps: by the distance map, or one block at a time.
+    pub skip_map: crate::render::blocks::SkipMap,
     /// Ray step in cells.
     pub step: f32,
     /// Block edge in unit cubes.
@@ -84,6 +86,7 @@ impl Default for RenderOptions {
             elevation: 25.0,
             perspective: false,
             skip: true,
+            skip_map: Default::default(),
             step: 0.25,
             block: 4,
             frames: 3,
@@ -113,6 +116,8 @@ pub struct Frame {
     pub ms_per_frame: f64,
     /// Fraction of blocks whose bounds exclude the iso-value.
     pub empty_blocks: f64,
+    /// The skipping map's build time and size (None: none built).
+    pub skip_map: Option<crate::render::blocks::SkipMapStats>,
 }
 
 /// The xyz of a uniform vector, widened to f64 (exactly).
@@ -157,9 +162,19 @@ pub(crate) fn ray_params_for(radius: usize, dims: [usize; 3], o: &RenderOptions)
     ];
     RayParams {
         camera: crate::render::camera::CameraUniform::orbit(&camera, lo.to_array(), hi.to_array(), o.width, o.height),
-        shade: [o.iso, o.step, o.perspective as i32 as f32, o.skip as i32 as f32],
+        shade: [o.iso, o.step, o.perspective as i32 as f32, skip_mode(o.skip, o.skip_map)],
         image: [o.width as i32, o.height as i32, o.block, 0],
         blocks,
+    }
+}
+
+/// The ray caster's skipping mode (`shade.w`): 0 off, 1 one block at a
+/// time, 2 by the distance map after the bounds.
+pub(crate) fn skip_mode(skip: bool, map: crate::render::blocks::SkipMap) -> f32 {
+    match (skip, map) {
+        (false, _) => 0.0,
+        (true, crate::render::blocks::SkipMap::OneBlock) => 1.0,
+        (true, _) => 2.0,
     }
 }
 
@@ -242,7 +257,14 @@ pub fn render_with_depth(
         other => GpuError::Runtime(other.to_string()),
     };
     let dv = DeviceVolume::new(gpu, vol, layout)?;
-    let options = renderer::IsoOptions { iso: o.iso, step: o.step, block: o.block, skip: o.skip, hit: o.hit };
+    let options = renderer::IsoOptions {
+        iso: o.iso,
+        step: o.step,
+        block: o.block,
+        skip: o.skip,
+        skip_map: o.skip_map,
+        hit: o.hit,
+    };
     let mut iso = renderer::IsoRenderer::new(gpu, d, &dv, options).map_err(as_gpu)?;
     iso.timed_frames(o).map_err(as_gpu)
 }

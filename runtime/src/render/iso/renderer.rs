@@ -14,7 +14,7 @@ use super::{fine_grid, ray_params_for, raycast_shader_with, Frame, HitMode, RayP
 use crate::gpu::binding::layout_entries_from;
 use crate::gpu::timing::timed_banded_frames;
 use crate::gpu::{Gpu, GpuError};
-use crate::render::blocks::{self, block_bounds};
+use crate::render::blocks::{self, block_bounds, SkipMap, SkipMapStats};
 use crate::render::camera::{Camera, FrameCamera, HostDepth, Target};
 use crate::render::host::HostInput;
 use crate::render::present::{image_buffer, FrameImage, Presenter};
@@ -32,6 +32,8 @@ pub struct IsoOptions {
     pub block: i32,
     /// Empty-space skipping with the block grid.
     pub skip: bool,
+    /// How far a skip jumps (the distance map, or one block).
+    pub skip_map: SkipMap,
     /// Fixed steps or exact first hits.
     pub hit: HitMode,
 }
@@ -39,7 +41,7 @@ pub struct IsoOptions {
 impl Default for IsoOptions {
     fn default() -> Self {
         let o = RenderOptions::default();
-        IsoOptions { iso: o.iso, step: o.step, block: o.block, skip: o.skip, hit: o.hit }
+        IsoOptions { iso: o.iso, step: o.step, block: o.block, skip: o.skip, skip_map: o.skip_map, hit: o.hit }
     }
 }
 
@@ -61,6 +63,7 @@ pub struct IsoRenderer {
     blocks: wgpu::Buffer,
     fine: Option<wgpu::Buffer>,
     empty_blocks: f64,
+    skip_map: Option<SkipMapStats>,
     presenter: Presenter,
     host: HostInput,
     /// The image of the current size, the hit depths beside it, and the
@@ -90,9 +93,16 @@ impl IsoRenderer {
         )?;
         let shader = gpu.compile(&format!("{name}.raycast.wgsl"), &source)?;
         let bounds = block_bounds(gpu, &shader, &name, volume, volume.dims, options.block)?;
-        let empty_blocks = bounds.iter().filter(|b| options.iso < b[0] || options.iso > b[1]).count() as f64
-            / bounds.len().max(1) as f64;
-        let blocks = blocks::upload(gpu, "blocks", &bounds);
+        let empty: Vec<u32> = bounds.iter().map(|b| (options.iso < b[0] || options.iso > b[1]) as u32).collect();
+        let empty_blocks = empty.iter().filter(|&&e| e != 0).count() as f64 / bounds.len().max(1) as f64;
+        // The distance map rides after the bounds in the same buffer (skipping mode 2).
+        let (blocks, skip_map) = if options.skip && options.skip_map != SkipMap::OneBlock {
+            let grid = blocks::blocks_per_axis(volume.dims, options.block);
+            let (distances, stats) = blocks::skip_map(&empty, grid, 0, options.skip_map);
+            (blocks::upload(gpu, "blocks", &blocks::bounds_with_distances(&bounds, &distances)), Some(stats))
+        } else {
+            (blocks::upload(gpu, "blocks", &bounds), None)
+        };
         let fine = if options.hit == HitMode::Exact {
             Some(blocks::upload(gpu, "fine blocks", &block_bounds(gpu, &shader, &name, volume, volume.dims, fine.0)?))
         } else {
@@ -133,6 +143,7 @@ impl IsoRenderer {
             blocks,
             fine,
             empty_blocks,
+            skip_map,
             presenter: Presenter::new(gpu)?,
             host: HostInput::new(gpu),
             frame: None,
@@ -142,6 +153,11 @@ impl IsoRenderer {
     /// The fraction of blocks whose bounds exclude the iso-value.
     pub fn empty_blocks(&self) -> f64 {
         self.empty_blocks
+    }
+
+    /// The distance map's build time and size (None: skipping off or one block at a time).
+    pub fn skip_map_stats(&self) -> Option<SkipMapStats> {
+        self.skip_map
     }
 
     /// The filter this renderer evaluates.
@@ -195,6 +211,7 @@ impl IsoRenderer {
             elevation: orbit.elevation,
             perspective: orbit.perspective,
             skip: self.options.skip,
+            skip_map: self.options.skip_map,
             step: self.options.step,
             block: self.options.block,
             hit: self.options.hit,
@@ -272,7 +289,9 @@ impl IsoRenderer {
     pub(crate) fn timed_frames(&mut self, o: &RenderOptions) -> Result<(Frame, Vec<f32>), RenderError> {
         self.ensure_image(o.width, o.height, None)?;
         self.host.write(&self.gpu, glam::Mat4::IDENTITY, false);
-        let params = ray_params_for(self.radius, self.dims, o);
+        let mut params = ray_params_for(self.radius, self.dims, o);
+        // The skipping this renderer was built for (the map is there or not).
+        params.shade[3] = super::skip_mode(self.options.skip, self.options.skip_map);
         let (frame, depth, _) = self.frame.as_ref().expect("allocated above");
         let times = timed_banded_frames(
             &self.gpu,
@@ -289,7 +308,17 @@ impl IsoRenderer {
         let rgba = words.iter().flat_map(|w| w.to_le_bytes()).collect();
         let depth: Vec<f32> = bytemuck::cast_slice(&self.gpu.read_buffer(depth)?).to_vec();
         let ms_per_frame = times[times.len() / 2];
-        Ok((Frame { width: o.width, height: o.height, rgba, ms_per_frame, empty_blocks: self.empty_blocks }, depth))
+        Ok((
+            Frame {
+                width: o.width,
+                height: o.height,
+                rgba,
+                ms_per_frame,
+                empty_blocks: self.empty_blocks,
+                skip_map: self.skip_map,
+            },
+            depth,
+        ))
     }
 }
 

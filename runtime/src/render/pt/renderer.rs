@@ -387,7 +387,7 @@ impl PtRenderer {
         times.sort_by(f64::total_cmp);
         let ms_per_frame = times.get(times.len() / 2).copied().unwrap_or(f64::NAN);
         let empty_blocks = 1.0 - self.drawn as f64 / self.total.max(1) as f64;
-        Ok(Frame { width, height, rgba, ms_per_frame, empty_blocks })
+        Ok(Frame { width, height, rgba, ms_per_frame, empty_blocks, skip_map: None })
     }
 }
 

@@ -77,6 +77,11 @@ pub struct RenderArgs {
     /// Turn empty-space skipping off.
     #[arg(long)]
     no_skip: bool,
+    /// Skip one empty block at a time (the skipping before the distance map)
+    /// instead of jumping over the whole empty box a block's distance to the
+    /// nearest occupied block guarantees.
+    #[arg(long, conflicts_with = "no_skip")]
+    skip_one_block: bool,
     /// Ray step in cells.
     #[arg(long, default_value_t = 0.25, allow_negative_numbers = true)]
     step: f32,
@@ -90,6 +95,16 @@ pub struct RenderArgs {
     adapter: Option<String>,
     #[arg(long, default_value = "out.png")]
     out: std::path::PathBuf,
+}
+
+/// `--skip-one-block`: the map of one-block skipping, else the distance map.
+fn skip_map(one_block: bool) -> boxforge_runtime::render::blocks::SkipMap {
+    use boxforge_runtime::render::blocks::SkipMap;
+    if one_block {
+        SkipMap::OneBlock
+    } else {
+        SkipMap::Distance
+    }
 }
 
 /// `--mode`.
@@ -245,6 +260,7 @@ pub fn run(a: RenderArgs) -> Result<(), Failure> {
                 elevation: el,
                 perspective: a.perspective,
                 skip: !a.no_skip,
+                skip_map: skip_map(a.skip_one_block),
                 preintegrate: !a.no_preintegration,
                 step: a.step,
                 progress: true,
@@ -262,6 +278,7 @@ pub fn run(a: RenderArgs) -> Result<(), Failure> {
                 elevation: el,
                 perspective: a.perspective,
                 skip: !a.no_skip,
+                skip_map: skip_map(a.skip_one_block),
                 step: a.step,
                 hit: a.hit.into(),
                 progress: true,
@@ -275,9 +292,18 @@ pub fn run(a: RenderArgs) -> Result<(), Failure> {
     let out = &a.out;
     render::write_png(out, frame.width, frame.height, &frame.rgba)
         .map_err(|e| Failure(format!("cannot write {}: {e}", out.display())))?;
+    let map = frame.skip_map.filter(|_| !a.no_skip).map_or(String::new(), |m| {
+        format!(
+            "; skip map {:.2} ms, {} KiB, mean skip distance {:.1} blocks{}",
+            m.build_ms,
+            m.bytes.div_ceil(1024),
+            m.mean_distance,
+            if a.skip_one_block { " (clamped to one block)" } else { "" }
+        )
+    });
     if tf.is_some() {
         outln!(
-            "{}: {}x{} volume rendering in {:.1} ms per frame ({:.0}% of blocks transparent under the transfer function)",
+            "{}: {}x{} volume rendering in {:.1} ms per frame ({:.0}% of blocks transparent under the transfer function{map})",
             out.display(),
             size,
             size,
@@ -286,7 +312,7 @@ pub fn run(a: RenderArgs) -> Result<(), Failure> {
         );
     } else {
         outln!(
-            "{}: {}x{} in {:.1} ms per frame ({:.0}% of blocks empty)",
+            "{}: {}x{} in {:.1} ms per frame ({:.0}% of blocks empty{map})",
             out.display(),
             size,
             size,
