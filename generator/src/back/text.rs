@@ -161,7 +161,7 @@ fn vulkan_declarations(
     target: Target,
 ) -> Result<String, BackError> {
     let binding_of = |h: Handle<naga::GlobalVariable>| {
-        v.module.global_variables[h].binding.clone().ok_or_else(|| BackError::Check {
+        v.module.global_variables[h].binding.ok_or_else(|| BackError::Check {
             file: file.to_string(),
             target,
             message: format!("a texture or sampler of the combined samplers has no binding ({h:?})"),

@@ -76,11 +76,11 @@ fn linear_fetches_run_in_glsl_on_gl_and_the_other_runs_refuse_cleanly() {
             .unwrap_or_else(|e| panic!("{} {layout:?} linear glsl on GL: {e}", d.filter.name));
         assert_eq!(t.report.fetch, FetchMode::Linear);
         assert!(t.report.passed && t.report.max_abs_err <= 1e-5 * t.report.data_range, "{:?}", t.report);
-        let e = run(&d, layout, Target::Hlsl, Runner::Vulkan).err().expect("HLSL has no linear sampler").to_string();
+        let e = run(&d, layout, Target::Hlsl, Runner::Vulkan).expect_err("HLSL has no linear sampler").to_string();
         assert!(e.contains("--fetch exact"), "{e}");
         if gpu.info.driver == "llvmpipe" {
             for target in [Target::Spirv, Target::Glsl] {
-                let e = run(&d, layout, target, Runner::Vulkan).err().expect("refused on lavapipe").to_string();
+                let e = run(&d, layout, target, Runner::Vulkan).expect_err("refused on lavapipe").to_string();
                 assert!(e.contains("lavapipe") && e.contains("--backend gl"), "{e}");
             }
         }
