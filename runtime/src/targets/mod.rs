@@ -99,17 +99,6 @@ impl TargetEvaluator {
     /// the volume layout the module was emitted for).
     pub fn vulkan(gpu: &Gpu, t: &Translated, dv: &DeviceVolume) -> Result<TargetEvaluator, TargetError> {
         let f = &t.filter;
-        if dv.filtered() && gpu.info.driver == "llvmpipe" {
-            // Mesa 22.3's lavapipe, given a separate sampler through
-            // passthrough, dies compiling naga's SPIR-V (SIGBUS) and returns
-            // values that change from run to run for glslang's (the same
-            // modules are exact through wgpu's own translation and on GL).
-            return Err(unsupported(
-                t.target,
-                Runner::Vulkan,
-                "lavapipe mishandles passthrough SPIR-V with a separate sampler (linear fetches): it crashes or returns run-to-run different values; run linear fetches with --backend gl here, or on another Vulkan driver",
-            ));
-        }
         let (words, entry, io, by) = match t.target {
             Target::Spirv => {
                 let entry = format!("{f}_eval_main");

@@ -3,9 +3,16 @@
 //! for the emitted WGSL (same groups and bindings, which the translations
 //! keep), plus the points, gradients and values buffers where the program
 //! declares them.
+//!
+//! wgpu's Vulkan backend numbers a group's descriptors by their rank in
+//! the group (binding 4 of a group holding bindings 0 and 4 becomes Vulkan
+//! binding 1) and renumbers the SPIR-V that naga writes for it to match;
+//! SPIR-V passed through keeps the WGSL numbers. So the layout here has no
+//! holes: every binding below the highest one exists, the unused ones as a
+//! small uniform buffer ([`hole_entries`]), and rank equals number.
 
 use super::TargetError;
-use crate::gpu::binding::storage_entry;
+use crate::gpu::binding::{storage_entry, uniform_entry};
 use crate::gpu::Gpu;
 use crate::volume::DeviceVolume;
 
@@ -30,6 +37,15 @@ pub struct Program {
     group1: Option<wgpu::BindGroupLayout>,
     io: Io,
     label: String,
+    /// Bindings of group 0 that only fill a hole (see the module docs).
+    holes: Vec<u32>,
+}
+
+/// The bindings missing below the highest of `entries`, as uniform-buffer
+/// entries, so that wgpu's rank numbering equals the binding numbers.
+pub fn hole_entries(entries: &[wgpu::BindGroupLayoutEntry]) -> Vec<wgpu::BindGroupLayoutEntry> {
+    let max = entries.iter().map(|e| e.binding).max().unwrap_or(0);
+    (0..max).filter(|b| !entries.iter().any(|e| e.binding == *b)).map(uniform_entry).collect()
 }
 
 impl Program {
@@ -51,6 +67,9 @@ impl Program {
                 storage_entry(first + 2, false),
             ]);
         }
+        let holes_entries = hole_entries(&entries);
+        let holes: Vec<u32> = holes_entries.iter().map(|e| e.binding).collect();
+        entries.extend(holes_entries);
         let group0 = dev
             .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("samples"), entries: &entries });
         let group1 = (io == Io::Set1).then(|| {
@@ -62,7 +81,7 @@ impl Program {
         let mut layouts = vec![&group0];
         layouts.extend(group1.as_ref());
         let pipeline = gpu.pipeline(label, &shader, &layouts, entry)?;
-        Ok(Program { pipeline, group0, group1, io, label: label.to_string() })
+        Ok(Program { pipeline, group0, group1, io, label: label.to_string(), holes })
     }
 
     /// (values, value + gradient) at every point.
@@ -85,7 +104,11 @@ impl Program {
                     dev.create_bind_group(&wgpu::BindGroupDescriptor { label: Some(&self.label), layout, entries })
                 })
             };
+            let filler = gpu.uniform_buffer("binding hole", &[0u8; 16]);
             let mut e0 = dv.bind_entries(0);
+            e0.extend(
+                self.holes.iter().map(|&b| wgpu::BindGroupEntry { binding: b, resource: filler.as_entire_binding() }),
+            );
             let groups = match (self.io, &self.group1) {
                 (Io::EvalKernel { first }, _) => {
                     e0.push(wgpu::BindGroupEntry { binding: first, resource: pts.as_entire_binding() });
