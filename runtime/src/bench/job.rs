@@ -139,9 +139,9 @@ impl Job {
         } else {
             vec![bg0, bg_io]
         };
-        // GPU time from timestamp queries when the adapter has them, else wall
-        // time around submit + wait.
-        let queries = gpu.timestamps.then(|| {
+        // GPU time from timestamp queries when the adapter has them and is
+        // a GPU ([`timestamps_trusted`]), else wall time around submit + wait.
+        let queries = timestamps_trusted(gpu).then(|| {
             let set = dev.create_query_set(&wgpu::QuerySetDescriptor {
                 label: None,
                 ty: wgpu::QueryType::Timestamp,
@@ -200,6 +200,16 @@ impl Job {
     pub fn points(&self) -> usize {
         self.n
     }
+}
+
+/// Whether the bench times dispatches with timestamp queries: only on a
+/// real GPU. On lavapipe (a CPU device) one full bench read timestamps a
+/// few microseconds apart around dispatches that take hundreds of
+/// milliseconds (1e10 evals/s, a thousand times the wall-clock rate), while
+/// other runs read them right: there the device is the CPU, and wall time
+/// around submit + wait is the honest clock.
+pub fn timestamps_trusted(gpu: &Gpu) -> bool {
+    gpu.timestamps && gpu.info.device_type != wgpu::DeviceType::Cpu
 }
 
 /// Interleaved rounds: one warm-up dispatch per job (it includes pipeline

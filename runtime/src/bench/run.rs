@@ -376,7 +376,7 @@ pub fn run_with(
     rows.extend(dvr::rows(gpu, o, rounds, progress)?);
     snapshot(&rows, &gradient, &reference_rows);
     let (quality, convergence) = if o.quality { quality(gpu, o, progress)? } else { (vec![], vec![]) };
-    let clock = if gpu.timestamps {
+    let clock = if super::job::timestamps_trusted(gpu) {
         "GPU time of one dispatch from timestamp queries (throughput rows), wall time around submit + wait of one frame after a warm-up frame (render rows)"
     } else {
         "wall time around submit + wait of one dispatch (throughput rows) or one frame after a warm-up frame (render rows)"
