@@ -322,6 +322,55 @@ pub fn verify_with(
     verify_fetch(gpu, d, layout, variant, form, bounds, FetchMode::Exact, points, seed)
 }
 
+/// The refusals every verify shares: a 3D filter, at least one point.
+pub(crate) fn check_request(d: &Derivation, points: usize) -> Result<(), VerifyError> {
+    if d.facts.dim != 3 {
+        return Err(VerifyError::NotThreeD { filter: d.filter.name.clone(), dim: d.facts.dim });
+    }
+    if points == 0 {
+        return Err(VerifyError::NoPoints);
+    }
+    Ok(())
+}
+
+/// `vol` on the device for `fetch`: bound for hardware filtering when linear.
+pub(crate) fn device_volume(
+    gpu: &Gpu,
+    vol: &LatticeVolume,
+    layout: Layout,
+    fetch: FetchMode,
+) -> Result<DeviceVolume, VerifyError> {
+    Ok(match fetch {
+        FetchMode::Linear => DeviceVolume::new_filtered(gpu, vol, layout)?,
+        FetchMode::Exact => DeviceVolume::new(gpu, vol, layout)?,
+    })
+}
+
+/// `eval` at `points` seeded random points of `vol`, chunk by chunk (so a
+/// hundred million points need no more memory than one chunk), each chunk
+/// checked against the exact evaluator.
+pub(crate) fn tally_points<E>(
+    d: &Derivation,
+    vol: &LatticeVolume,
+    points: usize,
+    seed: u64,
+    mut eval: impl FnMut(&[[f32; 4]]) -> Result<(Vec<f32>, Vec<[f32; 4]>), E>,
+) -> Result<Tally, E> {
+    let mut tally = Tally::new(data_range(vol));
+    let mut done = 0;
+    let mut chunk_index = 0u64;
+    while done < points {
+        let count = (points - done).min(POINTS_PER_DISPATCH);
+        let chunk_seed = if chunk_index == 0 { seed } else { seed ^ chunk_index.wrapping_mul(0x9E37_79B9_7F4A_7C15) };
+        let pts = random_points(d, vol, count, chunk_seed);
+        let (values, grads) = eval(&pts)?;
+        tally.check(d, vol, &pts, &values, &grads);
+        done += count;
+        chunk_index += 1;
+    }
+    Ok(tally)
+}
+
 /// [`verify_with`] with a fetch mode: `FetchMode::Linear` binds the samples
 /// for hardware filtering ([`DeviceVolume::new_filtered`]); lavapipe filters
 /// in float, so the same tolerance applies.
@@ -337,34 +386,14 @@ pub fn verify_fetch(
     points: usize,
     seed: u64,
 ) -> Result<VerifyReport, VerifyError> {
-    if d.facts.dim != 3 {
-        return Err(VerifyError::NotThreeD { filter: d.filter.name.clone(), dim: d.facts.dim });
-    }
-    if points == 0 {
-        return Err(VerifyError::NoPoints);
-    }
+    check_request(d, points)?;
     let vol = random_volume(d, seed);
-    let dv = match fetch {
-        FetchMode::Linear => DeviceVolume::new_filtered(gpu, &vol, layout)?,
-        FetchMode::Exact => DeviceVolume::new(gpu, &vol, layout)?,
-    };
+    let dv = device_volume(gpu, &vol, layout, fetch)?;
     let module = verify_module(d, &dv, variant, form, bounds)?;
     let used = module.stats.form;
     let evaluator = PointEvaluator::new(gpu, &module.source, &module.file_name, &d.filter.name, &dv)?;
     let range = data_range(&vol);
-    let mut tally = Tally::new(range);
-    // Chunk by chunk, so a hundred million points need no more memory than one chunk.
-    let mut done = 0;
-    let mut chunk_index = 0u64;
-    while done < points {
-        let count = (points - done).min(POINTS_PER_DISPATCH);
-        let chunk_seed = if chunk_index == 0 { seed } else { seed ^ chunk_index.wrapping_mul(0x9E37_79B9_7F4A_7C15) };
-        let pts = random_points(d, &vol, count, chunk_seed);
-        let (values, grads) = evaluator.eval(&pts)?;
-        tally.check(d, &vol, &pts, &values, &grads);
-        done += count;
-        chunk_index += 1;
-    }
+    let tally = tally_points(d, &vol, points, seed, |pts| evaluator.eval(pts))?;
     let passed = tally.passed();
     Ok(VerifyReport {
         filter: d.filter.name.clone(),

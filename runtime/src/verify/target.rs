@@ -2,10 +2,9 @@
 //! emitted ([`crate::targets`]), against the exact evaluator with the same
 //! points, tolerances and near-knot rule as the WGSL module.
 
-use super::{data_range, random_points, random_volume, Tally, VerifyError, VerifyReport, POINTS_PER_DISPATCH};
+use super::{check_request, data_range, device_volume, random_volume, tally_points, VerifyError, VerifyReport};
 use crate::gpu::Gpu;
 use crate::targets::{Runner, TargetEvaluator};
-use crate::volume::DeviceVolume;
 use boxforge::back::{translate, Target, TranslateOptions};
 use boxforge::derive::Derivation;
 use boxforge::emit::{emit, Bounds, EmitOptions, FetchMode, Layout, Variant};
@@ -38,12 +37,7 @@ pub fn verify_target(
     points: usize,
     seed: u64,
 ) -> Result<TargetVerifyReport, VerifyError> {
-    if d.facts.dim != 3 {
-        return Err(VerifyError::NotThreeD { filter: d.filter.name.clone(), dim: d.facts.dim });
-    }
-    if points == 0 {
-        return Err(VerifyError::NoPoints);
-    }
+    check_request(d, points)?;
     let options = EmitOptions {
         layout,
         variant,
@@ -59,10 +53,7 @@ pub fn verify_target(
     let vol = random_volume(d, seed);
     let (evaluator, dv) = match (runner, gpu) {
         (Runner::Vulkan, Some(gpu)) => {
-            let dv = match fetch {
-                FetchMode::Linear => DeviceVolume::new_filtered(gpu, &vol, layout)?,
-                FetchMode::Exact => DeviceVolume::new(gpu, &vol, layout)?,
-            };
+            let dv = device_volume(gpu, &vol, layout, fetch)?;
             (TargetEvaluator::vulkan(gpu, &translated, &dv)?, Some(dv))
         }
         (Runner::Vulkan, None) => return Err(VerifyError::Emit("a Vulkan run needs a device".into())),
@@ -79,18 +70,7 @@ pub fn verify_target(
         }
     };
     let range = data_range(&vol);
-    let mut tally = Tally::new(range);
-    let mut done = 0;
-    let mut chunk_index = 0u64;
-    while done < points {
-        let count = (points - done).min(POINTS_PER_DISPATCH);
-        let chunk_seed = if chunk_index == 0 { seed } else { seed ^ chunk_index.wrapping_mul(0x9E37_79B9_7F4A_7C15) };
-        let pts = random_points(d, &vol, count, chunk_seed);
-        let (values, grads) = evaluator.eval(gpu, dv.as_ref(), &pts)?;
-        tally.check(d, &vol, &pts, &values, &grads);
-        done += count;
-        chunk_index += 1;
-    }
+    let tally = tally_points(d, &vol, points, seed, |pts| evaluator.eval(gpu, dv.as_ref(), pts))?;
     let passed = tally.passed();
     Ok(TargetVerifyReport {
         target,

@@ -111,7 +111,7 @@ pub fn run(a: VerifyArgs) -> Result<(), Failure> {
         outln!("{}", serde_json::to_string(&r).unwrap());
     } else {
         outln!(
-            "{} ({}, {}, form {}, {} {} fetches) on {}: {} points, max |value error| {:.3e} (range {:.3}), max relative gradient error {:.3e}, {} near a knot plane ({} matched the piece across it): {}",
+            "{} ({}, {}, form {}, {} {} fetches) on {}: {}",
             r.filter,
             layout.name(),
             variant.name(),
@@ -119,13 +119,7 @@ pub fn run(a: VerifyArgs) -> Result<(), Failure> {
             r.bounds.name(),
             r.fetch.name(),
             r.adapter,
-            r.points,
-            r.max_abs_err,
-            r.data_range,
-            r.max_rel_grad_err,
-            r.near_knot_points,
-            r.accepted_other_side,
-            if r.passed { "PASSED" } else { "FAILED" }
+            results(&r)
         );
     }
     if r.passed {
@@ -133,6 +127,20 @@ pub fn run(a: VerifyArgs) -> Result<(), Failure> {
     } else {
         std::process::exit(1)
     }
+}
+
+/// The measured part of a report's line, and its verdict.
+fn results(r: &boxforge_runtime::verify::VerifyReport) -> String {
+    format!(
+        "{} points, max |value error| {:.3e} (range {:.3}), max relative gradient error {:.3e}, {} near a knot plane ({} matched the piece across it): {}",
+        r.points,
+        r.max_abs_err,
+        r.data_range,
+        r.max_rel_grad_err,
+        r.near_knot_points,
+        r.accepted_other_side,
+        if r.passed { "PASSED" } else { "FAILED" }
+    )
 }
 
 /// `verify --target X`: a translation, run as emitted.
@@ -183,20 +191,15 @@ fn run_target(
         outln!("{}", serde_json::to_string(&t).unwrap());
     } else {
         outln!(
-            "{} ({}, {}, form {}) in {} run by {}: {} points, max |value error| {:.3e} (range {:.3}), max relative gradient error {:.3e}, {} near a knot plane ({} matched the piece across it): {}",
+            "{} ({}, {}, form {}, {} fetches) in {} run by {}: {}",
             r.filter,
             layout.name(),
             variant.name(),
             r.form.name(),
+            r.fetch.name(),
             target.language(),
             r.adapter,
-            r.points,
-            r.max_abs_err,
-            r.data_range,
-            r.max_rel_grad_err,
-            r.near_knot_points,
-            r.accepted_other_side,
-            if r.passed { "PASSED" } else { "FAILED" }
+            results(r)
         );
     }
     if r.passed {
