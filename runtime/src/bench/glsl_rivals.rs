@@ -66,7 +66,7 @@ pub struct GlslRivalRow {
     pub reference_evals_per_s: Option<f64>,
     /// generated ÷ reference, per round, one evaluation per invocation.
     pub ratio: Option<Ratio>,
-    /// generated ÷ reference in the ray-caster shape ([`RAY_STEPS`]
+    /// generated ÷ reference in the ray-caster shape (`RAY_STEPS` (16)
     /// evaluations per invocation), timed in the same rounds.
     pub ray_ratio: Option<Ratio>,
     pub max_abs_diff: Option<f64>,
@@ -80,7 +80,7 @@ pub struct GlslRivalRow {
 
 /// A complete GLSL 4.50 compute shader around `library` that writes
 /// `vec4(f(p), 0, 0, 0)` at every point (`ray`: the sum of `f` at
-/// [`RAY_STEPS`] points a quarter cell apart, as the WGSL table's ray-caster
+/// `RAY_STEPS` (16) points a quarter cell apart, as the WGSL table's ray-caster
 /// shape): the points at set 1 binding 0, the outputs at set 1 binding 1,
 /// the same kernel as [`super::program`]'s for [`Job::from_spirv`].
 pub fn kernel(library: &str, f: &str, ray: bool) -> String {

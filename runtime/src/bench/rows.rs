@@ -94,7 +94,7 @@ pub struct ReferenceRow {
     /// most any evaluation with these loads could reach.
     pub loads_only_ratio: Option<Ratio>,
     /// generated ÷ reference in the ray-caster kernel shape
-    /// ([`super::compare::RAY_STEPS`] evaluations per invocation along a
+    /// (`RAY_STEPS` (16) evaluations per invocation along a
     /// short path, one write), timed in the same rounds.
     pub ray_ratio: Option<Ratio>,
     /// The loads-only cut ÷ the reference, ray-caster shape.

@@ -92,7 +92,7 @@ impl GlCompute {
         Ok(GlCompute { egl, display, context, gl })
     }
 
-    /// "OpenGL <version> on <renderer>", for reports.
+    /// `OpenGL <version> on <renderer>`, for reports.
     pub fn describe(&self) -> String {
         unsafe {
             format!(

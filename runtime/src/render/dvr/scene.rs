@@ -92,7 +92,7 @@ impl<'a> DvrScene<'a> {
 
     /// Renders one image (a warm-up frame, then `o.frames` timed frames);
     /// `empty_blocks` is the fraction of blocks the transfer function leaves
-    /// transparent (fewer are skipped: see [`skip_flags`]).
+    /// transparent (fewer are skipped: see `skip::skip_flags`).
     pub fn render(&self, tf: &TransferFunction, o: &DvrOptions) -> Result<Frame, GpuError> {
         let table = tf.table();
         let pi = if o.preintegrate { Some(table.preintegrate(o.step as f64)) } else { None };
