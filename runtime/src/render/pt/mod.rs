@@ -5,6 +5,7 @@
 //! The host side ([`render`]: per-cell visibility masks, the back-to-front
 //! order, one instanced draw) backs `render --renderer pt`.
 
+pub mod data;
 pub mod render;
 pub mod renderer;
 pub mod tets;

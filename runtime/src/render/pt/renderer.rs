@@ -12,7 +12,7 @@
 //! would round after every tetrahedron. Frames after the first at one size
 //! create no buffer, texture or shader module.
 
-use super::render::{packed_data, visibility_masks, Normals, PtParams, Shading};
+use super::data::{packed_data, visibility_masks, Normals, PtParams, Shading};
 use super::tets::{inverse_edges, Complexes, Grid};
 use crate::gpu::binding::{storage_entry, uniform_entry};
 use crate::gpu::Gpu;
