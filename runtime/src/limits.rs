@@ -25,7 +25,7 @@ pub enum LimitError {
     Samples { what: String, dims: [usize; 3] },
     /// An embedded volume with an edge over the adapter's 3D texture limit.
     #[error(
-        "the volume is {}x{}x{} samples, over this adapter's 3D texture limit of {max} per edge; use the packed layout, resample or a smaller ml:N",
+        "the volume is {}x{}x{} samples, over this adapter's 3D texture limit of {max} per edge; use the bricked layout (bricks of any volume in a pool that fits), the packed layout, resample or a smaller ml:N",
         dims[0], dims[1], dims[2]
     )]
     TextureEdge { dims: [usize; 3], max: usize },
@@ -71,7 +71,8 @@ pub fn check_volume_limits(
         return Ok(());
     }
     Err(match layout {
-        boxforge::emit::Layout::Embedded => LimitError::TextureEdge { dims, max },
+        // A bricked pool is refolded to fit; its caller checks the pool's own size.
+        boxforge::emit::Layout::Embedded | boxforge::emit::Layout::Bricked => LimitError::TextureEdge { dims, max },
         boxforge::emit::Layout::Packed => LimitError::PackedTextureEdge { dims, texture, max },
     })
 }

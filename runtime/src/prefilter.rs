@@ -3,10 +3,10 @@
 
 use crate::gpu::binding::{storage_entry, uniform_entry};
 use crate::gpu::{Gpu, GpuError};
-use crate::volume::DeviceVolume;
 use crate::volume::LatticeVolume;
+use crate::volume::{DeviceVolume, VolumeOptions};
 use boxforge::derive::Derivation;
-use boxforge::emit::{emit, EmitOptions, Layout};
+use boxforge::emit::{emit, Layout};
 
 /// Why the device prefilter could not run.
 #[derive(Debug, thiserror::Error)]
@@ -52,13 +52,26 @@ pub fn prefilter_gpu(
     vol: &LatticeVolume,
     layout: Layout,
 ) -> Result<LatticeVolume, PrefilterError> {
+    prefilter_gpu_with(gpu, d, vol, layout, &VolumeOptions::default())
+}
+
+/// [`prefilter_gpu`] with the samples stored as `options` says (a compact
+/// format or bricks): the kernel reads them in that format and writes f32
+/// values (the sample map applied to each sum).
+pub fn prefilter_gpu_with(
+    gpu: &Gpu,
+    d: &Derivation,
+    vol: &LatticeVolume,
+    layout: Layout,
+    options: &VolumeOptions,
+) -> Result<LatticeVolume, PrefilterError> {
     let name = &d.filter.name;
-    let module = emit(d, &EmitOptions { layout, command: "boxforge prefilter".into(), ..Default::default() })
-        .map_err(|e| PrefilterError::Emit(e.to_string()))?;
+    let dv = DeviceVolume::with_options(gpu, vol, layout, options)?;
+    dv.check_filter(d)?;
+    let module = emit(d, &dv.emit_options("boxforge prefilter")).map_err(|e| PrefilterError::Emit(e.to_string()))?;
     let shader = gpu.compile(&module.file_name, &module.source)?;
     let dev = &gpu.device;
-    let dv = DeviceVolume::new(gpu, vol, layout)?;
-    let out_binding = if layout == Layout::Packed { 2 } else { 1 };
+    let out_binding = layout.sample_bindings();
     let mut entries = dv.layout_entries(0, wgpu::ShaderStages::COMPUTE);
     entries.push(storage_entry(out_binding, false));
     entries.push(uniform_entry(out_binding + 1));

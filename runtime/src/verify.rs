@@ -3,8 +3,8 @@
 
 use crate::gpu::binding::storage_entry;
 use crate::gpu::{Gpu, GpuError};
-use crate::volume::DeviceVolume;
 use crate::volume::LatticeVolume;
+use crate::volume::{BrickShape, DeviceVolume, VolumeOptions};
 use boxforge::derive::Derivation;
 use boxforge::emit::{emit, Bounds, EmitOptions, EvalForm, FetchMode, Layout, Variant};
 use serde::Serialize;
@@ -141,6 +141,7 @@ fn verify_module(
             form,
             bounds,
             fetch: if vol.filtered() { FetchMode::Linear } else { FetchMode::Exact },
+            samples: vol.map,
             ..Default::default()
         },
     )
@@ -333,17 +334,54 @@ pub(crate) fn check_request(d: &Derivation, points: usize) -> Result<(), VerifyE
     Ok(())
 }
 
-/// `vol` on the device for `fetch`: bound for hardware filtering when linear.
+/// The brick edge `verify` cuts its volumes into: small, so that most
+/// points' stencils cross a brick face and the slots wrap in the pool.
+pub const VERIFY_BRICK_EDGE: usize = 4;
+
+/// `vol` on the device for `fetch`: bound for hardware filtering when
+/// linear; bricked in bricks of [`VERIFY_BRICK_EDGE`] with exactly the halo
+/// `d`'s stencils need (so a halo derived too narrow fails), in a pool only
+/// five slots wide (the slots wrap onto rows and layers).
 pub(crate) fn device_volume(
     gpu: &Gpu,
+    d: &Derivation,
     vol: &LatticeVolume,
     layout: Layout,
     fetch: FetchMode,
 ) -> Result<DeviceVolume, VerifyError> {
-    Ok(match fetch {
-        FetchMode::Linear => DeviceVolume::new_filtered(gpu, vol, layout)?,
-        FetchMode::Exact => DeviceVolume::new(gpu, vol, layout)?,
+    Ok(match (fetch, layout) {
+        (FetchMode::Exact, Layout::Bricked) => {
+            let bricks = BrickShape { edge: VERIFY_BRICK_EDGE, halo: boxforge::emit::bricks::brick_halo(d) };
+            let options = VolumeOptions { bricks, max_pool_edge: Some(5 * bricks.slot()), ..Default::default() };
+            DeviceVolume::with_options(gpu, vol, layout, &options)?
+        }
+        (FetchMode::Linear, _) => DeviceVolume::new_filtered(gpu, vol, layout)?,
+        (FetchMode::Exact, _) => DeviceVolume::new(gpu, vol, layout)?,
     })
+}
+
+/// Points on and a rounding error either side of brick faces (edge
+/// `edge`): `base`'s points with one coordinate (cycling over the axes)
+/// moved to the nearest face inside the volume's interior range, then
+/// nudged by -1, 0 or +1 ulp.
+pub fn brick_face_points(d: &Derivation, vol: &LatticeVolume, base: &[[f32; 4]], edge: usize) -> Vec<[f32; 4]> {
+    let r = support_radius(d) as f32 + 1.0;
+    base.iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let mut q = *p;
+            let a = i % 3;
+            let hi = vol.dims[a] as f32 - 1.0 - r;
+            let face = ((p[a] / edge as f32).round() * edge as f32).clamp(r, hi);
+            let face = if (face / edge as f32).fract() == 0.0 { face } else { p[a] };
+            q[a] = match (i / 3) % 3 {
+                0 => face.next_down(),
+                1 => face,
+                _ => face.next_up(),
+            };
+            q
+        })
+        .collect()
 }
 
 /// `eval` at `points` seeded random points of `vol`, chunk by chunk (so a
@@ -388,12 +426,20 @@ pub fn verify_fetch(
 ) -> Result<VerifyReport, VerifyError> {
     check_request(d, points)?;
     let vol = random_volume(d, seed);
-    let dv = device_volume(gpu, &vol, layout, fetch)?;
+    let dv = device_volume(gpu, d, &vol, layout, fetch)?;
     let module = verify_module(d, &dv, variant, form, bounds)?;
     let used = module.stats.form;
     let evaluator = PointEvaluator::new(gpu, &module.source, &module.file_name, &d.filter.name, &dv)?;
     let range = data_range(&vol);
-    let tally = tally_points(d, &vol, points, seed, |pts| evaluator.eval(pts))?;
+    let mut tally = tally_points(d, &vol, points, seed, |pts| evaluator.eval(pts))?;
+    if let Some(b) = dv.bricks {
+        // Bricked: as many points again on the brick faces, where the brick
+        // choice (floor(p / B) in f32) and the halo meet.
+        let base = random_points(d, &vol, points.min(POINTS_PER_DISPATCH), seed ^ 0xB41C);
+        let faces = brick_face_points(d, &vol, &base, b.edge);
+        let (values, grads) = evaluator.eval(&faces)?;
+        tally.check(d, &vol, &faces, &values, &grads);
+    }
     let passed = tally.passed();
     Ok(VerifyReport {
         filter: d.filter.name.clone(),

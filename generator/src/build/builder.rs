@@ -309,6 +309,7 @@ impl Builder {
             form: self.form,
             bounds: self.bounds,
             fetch: self.fetch,
+            samples: crate::emit::SampleMap::IDENTITY,
         };
         let mut modules = Vec::new();
         for f in &filters {

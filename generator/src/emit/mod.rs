@@ -9,6 +9,7 @@
 //! tables, so the benefit can be measured (and the branch-free check can fail).
 
 pub mod bounds;
+pub mod bricks;
 pub mod coset;
 pub mod cse;
 pub mod factored;
@@ -48,6 +49,11 @@ pub enum Layout {
     /// One dense grid per coset of 2Z^s, each a tile of one texture read with
     /// `textureLoad` (one texel per sample).
     Packed,
+    /// The embedded texels cut into bricks of B^s, each in a slot of a pool
+    /// texture with a halo as wide as the stencils reach, found through a
+    /// page table once per evaluation ([`bricks`]): volumes larger than one
+    /// texture, and bricks kept resident only where a frame needs them.
+    Bricked,
 }
 
 /// Code shape.
@@ -66,6 +72,17 @@ impl Layout {
         match self {
             Layout::Embedded => "embedded",
             Layout::Packed => "packed",
+            Layout::Bricked => "bricked",
+        }
+    }
+    /// Bindings the samples take from the first one (the kernels' outputs
+    /// follow them): the texture; the coset grid uniform (packed); the
+    /// bricks uniform and the page table (bricked).
+    pub fn sample_bindings(self) -> u32 {
+        match self {
+            Layout::Embedded => 1,
+            Layout::Packed => 2,
+            Layout::Bricked => 3,
         }
     }
     /// The value named `s` (see [`name`](Self::name)); None for any other string.
@@ -73,6 +90,7 @@ impl Layout {
         match s {
             "embedded" => Some(Layout::Embedded),
             "packed" => Some(Layout::Packed),
+            "bricked" => Some(Layout::Bricked),
             _ => None,
         }
     }
@@ -117,6 +135,38 @@ pub struct EmitOptions {
     pub bounds: Bounds,
     /// Exact texel loads (default) or hardware-filtered (linear) fetches in `eval`.
     pub fetch: FetchMode,
+    /// What a stored sample means: value = offset + scale * stored (compact
+    /// formats store normalized samples); identity by default.
+    pub samples: SampleMap,
+}
+
+/// The affine map from stored samples to values: value = offset + scale *
+/// stored. A box spline is linear in its samples and its weights sum to 1,
+/// so the module applies the map once per evaluation (value: offset + scale
+/// * the spline of the stored samples; gradient: scale * its gradient), once
+/// per prefiltered point (the prefilter's taps sum to 1) and once per bound.
+/// Compact sample formats (u8, u16 normalized, f16) store (v - offset) / scale.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct SampleMap {
+    /// The factor (must be finite and > 0, so bounds keep their order).
+    pub scale: f32,
+    /// The offset (finite).
+    pub offset: f32,
+}
+
+impl SampleMap {
+    /// Stored samples are the values.
+    pub const IDENTITY: SampleMap = SampleMap { scale: 1.0, offset: 0.0 };
+    /// Whether the map changes nothing (then the module has no trace of it).
+    pub fn is_identity(&self) -> bool {
+        *self == Self::IDENTITY
+    }
+}
+
+impl Default for SampleMap {
+    fn default() -> Self {
+        Self::IDENTITY
+    }
 }
 
 /// How `eval` reads the samples.
@@ -220,6 +270,7 @@ impl Default for EmitOptions {
             form: None,
             bounds: Bounds::Clamp,
             fetch: FetchMode::Exact,
+            samples: SampleMap::IDENTITY,
         }
     }
 }
@@ -267,6 +318,9 @@ pub fn binding_purpose(filter: &str, name: &str) -> Option<&'static str> {
         "volume" => "The samples as an r32float texture: lattice point j at texel j (the other texels are unused).",
         "cosets" => "The samples packed per coset of 2Z^s as one r32float texture (filterable with fetch = linear): lattice point j at texel (j >> 1) + (j & p) * grid.size, p = 1 on the pivot axes of the coset id, so each coset's grid is one tile.",
         "grid" => "The coset grid: its size (x, y, z or x, y) and, in w, the words per coset.",
+        "pool" => "The brick pool as an r32float (or compact-format) texture: slot s holds brick k's texels k * B - h .. (k + 1) * B + h (clamped to the volume) at s * (B + 2h).",
+        "bricks" => "The brick geometry: the volume's size in lattice texels with the brick edge B in w, and the bricks per axis with the halo h in w.",
+        "pages" => "The page table as an r32uint texture, one texel per brick: its slot (10 bits per axis in 3D, 16 in 2D).",
         "linear" => "A linear, clamp-to-edge sampler for the hardware-filtered fetches.",
         "out" => "The kernels' output buffer: one prefiltered value per point of the job's box (row-major), or a (min, max) pair per block for minmax.",
         "job" => "The kernel's job: the box's lattice-coordinate origin and extent, and the block edge B in extent.w for minmax.",
@@ -310,6 +364,16 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
             polynomials,
             pieces: d.references.len(),
             cap: d.filter.caps.max_emitted_polynomials,
+        });
+    }
+    let map = opts.samples;
+    if !(map.scale.is_finite() && map.scale > 0.0 && map.offset.is_finite()) {
+        return Err(Error::Spec {
+            origin: format!("filter {}", d.filter.name),
+            message: format!(
+                "sample map scale {} offset {}: the scale must be finite and > 0 and the offset finite",
+                map.scale, map.offset
+            ),
         });
     }
     let plan = Plan::new(d);
@@ -356,6 +420,11 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
                 let lin = linear::LinearPlan::new(d);
                 (linear::emit_linear_body(d, &plan, &lin, &sh, name), Some(lin.fetches(&plan)))
             }
+            Layout::Bricked => {
+                return Err(refuse(
+                    "is not offered on the bricked layout (a pair may straddle a slot's halo); use exact fetches",
+                ))
+            }
             Layout::Embedded => match d.factorisation() {
                 Some(fac) if fac.supports_linear_fetch() && form == EvalForm::Factored => {
                     (factored::emit_factored_linear_body(&fac, &sh, name), Some(fac.linear_fetches()))
@@ -374,6 +443,18 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
         }
     } else {
         (eval_body, None)
+    };
+    // Bricked: one page lookup per evaluation, every fetch from that slot.
+    let (eval_body, grad_body) = if opts.layout == Layout::Bricked {
+        let paged = |body: &str| {
+            format!(
+                "    let brick_page = {name}_page(p);\n{}",
+                body.replace(&format!("{name}_fetch("), &format!("{name}_fetch_in(brick_page, "))
+            )
+        };
+        (paged(&eval_body), paged(&grad_body))
+    } else {
+        (eval_body, grad_body)
     };
     // The factored form adds one constant offset per fetch after each coset's base.
     let vector_adds = match (&fac, form) {
@@ -423,7 +504,7 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
                 let mask: IVec = (0..s).map(|a| i64::from(piv.contains(&a))).collect();
                 (1usize << piv.len(), formula, sh.ivec(&mask))
             }
-            Layout::Embedded => (0, String::new(), String::new()),
+            Layout::Embedded | Layout::Bricked => (0, String::new(), String::new()),
         };
     let extent_product = if s == 3 { "e.x * e.y * e.z" } else { "e.x * e.y" };
     let delinearize =
@@ -438,7 +519,7 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
         let neg: IVec = k.iter().map(|x| -x).collect();
         let _ = writeln!(prefilter_body, "    acc += {} * {name}_fetch(j + {});", lit(w), sh.ivec(&neg));
     }
-    let out_binding = opts.binding + if opts.layout == Layout::Packed { 2 } else { 1 };
+    let out_binding = opts.binding + opts.layout.sample_bindings();
     let env = template_env();
     let tmpl = env.get_template("module.wgsl.j2").expect("template_env adds module.wgsl.j2");
     let ctx = minijinja::context! {
@@ -477,6 +558,10 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
         prefilter_body => prefilter_body,
         clamp => opts.bounds == Bounds::Clamp,
         linear => opts.fetch == FetchMode::Linear,
+        mapped => !map.is_identity(),
+        sample_scale => lit_f32(map.scale),
+        sample_offset => lit_f32(map.offset),
+        halo => if opts.layout == Layout::Bricked { bricks::brick_halo(d) } else { 0 },
     };
     let source = tmpl.render(ctx).map_err(|e| Error::Spec { origin: "templates".into(), message: e.to_string() })?;
     let stats = EmitStats {
@@ -499,6 +584,16 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
         file = file.replace(".wgsl", ".linear.wgsl");
     }
     Ok(Emitted { file_name: file, source, stats })
+}
+
+/// An f32 as a WGSL literal that reads back as the same f32.
+fn lit_f32(x: f32) -> String {
+    let t = format!("{x:?}");
+    if t.contains('.') || t.contains('e') {
+        t
+    } else {
+        format!("{t}.0")
+    }
 }
 
 /// The ridge form's highest degree. Above it the products of high powers of
@@ -590,6 +685,7 @@ fn template_env() -> minijinja::Environment<'static> {
         ("module.wgsl.j2", include_str!("../../../templates/module.wgsl.j2")),
         ("fetch_embedded.wgsl.j2", include_str!("../../../templates/fetch_embedded.wgsl.j2")),
         ("fetch_packed.wgsl.j2", include_str!("../../../templates/fetch_packed.wgsl.j2")),
+        ("fetch_bricked.wgsl.j2", include_str!("../../../templates/fetch_bricked.wgsl.j2")),
         ("kernels.wgsl.j2", include_str!("../../../templates/kernels.wgsl.j2")),
     ] {
         env.add_template(n, src)

@@ -110,6 +110,10 @@ impl Gpu {
         }
         // SPIR-V handed to the driver as is (`verify --target`: the emitted
         // or glslang-compiled binaries run without a translation of ours).
+        // u16 samples as R16Unorm (native only; without it u16 is refused with the fix).
+        if adapter.features().contains(wgpu::Features::TEXTURE_FORMAT_16BIT_NORM) {
+            features |= wgpu::Features::TEXTURE_FORMAT_16BIT_NORM;
+        }
         if adapter.features().contains(wgpu::Features::PASSTHROUGH_SHADERS) {
             features |= wgpu::Features::PASSTHROUGH_SHADERS;
         }

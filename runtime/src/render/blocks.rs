@@ -6,7 +6,6 @@
 use crate::gpu::binding::{storage_entry, uniform_entry};
 use crate::gpu::{Gpu, GpuError};
 use crate::volume::DeviceVolume;
-use boxforge::emit::Layout;
 
 /// Blocks per axis of a grid of `block`^3 cubes over a volume of `dims` samples.
 pub fn blocks_per_axis(dims: [usize; 3], block: i32) -> [i32; 3] {
@@ -34,7 +33,7 @@ pub fn block_bounds(
     let blocks = blocks_per_axis(dims, block);
     let slab = (blocks[0] * blocks[1]) as usize;
     let nblocks = slab * blocks[2] as usize;
-    let out_binding = if dv.layout == Layout::Packed { 2 } else { 1 };
+    let out_binding = dv.layout.sample_bindings();
     let mut entries0 = dv.layout_entries(0, wgpu::ShaderStages::COMPUTE);
     entries0.push(storage_entry(out_binding, false));
     entries0.push(uniform_entry(out_binding + 1));

@@ -107,8 +107,9 @@ mod tests {
         let module = crate::render::dvr::filter_module(&d, Layout::Embedded).unwrap();
         let host = [(1, 6, "uniform buffer".to_string()), (1, 7, "texture_depth_2d".to_string())];
         for hit in [HitMode::Step, HitMode::Exact] {
-            let plain = raycast_shader_with(&d, Layout::Embedded, hit, (1, [1, 1, 1]), "t", false).unwrap();
-            let native = raycast_shader_with(&d, Layout::Embedded, hit, (1, [1, 1, 1]), "t", true).unwrap();
+            let opts = boxforge::emit::EmitOptions { command: "t".into(), ..Default::default() };
+            let plain = raycast_shader_with(&d, &opts, hit, (1, [1, 1, 1]), false).unwrap();
+            let native = raycast_shader_with(&d, &opts, hit, (1, [1, 1, 1]), true).unwrap();
             let (p, n) = (table(&plain), table(&native));
             assert!(host.iter().all(|h| n.contains(h) && !p.contains(h)), "{hit:?}: {n:?}");
             assert_eq!(n.len(), p.len() + 2);

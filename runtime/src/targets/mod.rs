@@ -167,6 +167,9 @@ impl TargetEvaluator {
         let how = format!("the GLSL text compiled by the driver: {}", context.describe());
         let source = mains::glsl(lib, &t.filter, mains::GlslApi::OpenGl);
         let samples = match layout {
+            Layout::Bricked => {
+                return Err(unsupported(t.target, Runner::Gl, "the OpenGL runner binds the embedded or packed layout"))
+            }
             Layout::Embedded => GlSamples::Texture {
                 dims: [vol.dims[0] as u32, vol.dims[1] as u32, vol.dims[2] as u32],
                 data: vol.data.clone(),

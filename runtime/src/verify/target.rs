@@ -53,7 +53,7 @@ pub fn verify_target(
     let vol = random_volume(d, seed);
     let (evaluator, dv) = match (runner, gpu) {
         (Runner::Vulkan, Some(gpu)) => {
-            let dv = device_volume(gpu, &vol, layout, fetch)?;
+            let dv = device_volume(gpu, d, &vol, layout, fetch)?;
             (TargetEvaluator::vulkan(gpu, &translated, &dv)?, Some(dv))
         }
         (Runner::Vulkan, None) => return Err(VerifyError::Emit("a Vulkan run needs a device".into())),

@@ -2,64 +2,140 @@
 
 use crate::gpu::binding::{linear_sampler, sampler_entry, texture_3d_entry};
 use crate::gpu::{Gpu, GpuError};
-use crate::volume::LatticeVolume;
-use boxforge::emit::Layout;
+use crate::volume::{BrickShape, LatticeVolume, SampleFormat, VolumeError};
+use boxforge::emit::{Layout, SampleMap};
 use wgpu::util::DeviceExt;
+
+/// How a [`DeviceVolume`] stores its samples beyond the layout: the sample
+/// format and, for the bricked layout, the brick shape.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct VolumeOptions {
+    /// Stored sample format (f32 by default).
+    pub format: SampleFormat,
+    /// Brick edge and halo (bricked layout only).
+    pub bricks: BrickShape,
+    /// Largest pool texture edge for the bricked layout (None: the adapter's
+    /// 3D texture limit); tests force small pools with it.
+    pub max_pool_edge: Option<usize>,
+}
+
+impl Default for VolumeOptions {
+    fn default() -> Self {
+        VolumeOptions {
+            format: SampleFormat::F32,
+            bricks: BrickShape { edge: BrickShape::DEFAULT_EDGE, halo: DEFAULT_HALO },
+            max_pool_edge: None,
+        }
+    }
+}
+
+/// The halo [`DeviceVolume::new`] gives bricks when no filter is named: wide
+/// enough for every built-in filter (a test holds it to their
+/// [`boxforge::emit::bricks::brick_halo`]); renderers check a volume's halo
+/// against their filter's and say how to rebuild it.
+pub const DEFAULT_HALO: usize = 4;
 
 /// Samples uploaded for one layout, with the bind-group pieces the emitted
 /// module declares (embedded: one 3D texture; packed: one 3D texture with a
-/// tile per coset + the coset grid uniform).
+/// tile per coset + the coset grid uniform; bricked: the pool texture, the
+/// bricks uniform and the page table).
 pub struct DeviceVolume {
     pub layout: Layout,
     texture_view: Option<wgpu::TextureView>,
+    /// The page table (bricked layout).
+    pages_view: Option<wgpu::TextureView>,
     /// With `fetch = linear`: a linear clamp-to-edge sampler at binding + 4
     /// (the texture bound as filterable, in either layout).
     sampler: Option<wgpu::Sampler>,
     buffers: Vec<wgpu::Buffer>,
-    /// Bytes on the device for the samples.
+    /// Bytes on the device for the samples (with the page table and halos).
     pub bytes: usize,
     /// Lattice samples per axis of the volume (what the ray casters bound their rays by).
     pub dims: [usize; 3],
     /// The samples' lattice (a renderer written for one lattice checks it).
     pub lattice: boxforge::spec::lattice::Lattice,
+    /// Stored sample format.
+    pub format: SampleFormat,
+    /// Stored sample to value: the module emitted for this volume applies it.
+    pub map: SampleMap,
+    /// The brick shape (bricked layout).
+    pub bricks: Option<BrickShape>,
 }
 
 impl DeviceVolume {
+    /// f32 samples in `layout` (bricks of the default shape).
     pub fn new(gpu: &Gpu, v: &LatticeVolume, layout: Layout) -> Result<DeviceVolume, GpuError> {
+        DeviceVolume::with_options(gpu, v, layout, &VolumeOptions::default())
+    }
+
+    /// Samples in `layout`, stored as `options` says.
+    pub fn with_options(
+        gpu: &Gpu,
+        v: &LatticeVolume,
+        layout: Layout,
+        options: &VolumeOptions,
+    ) -> Result<DeviceVolume, GpuError> {
+        let runtime = |e: VolumeError| GpuError::Runtime(e.to_string());
+        let format = options.format;
+        if format == SampleFormat::U16 && !gpu.device.features().contains(wgpu::Features::TEXTURE_FORMAT_16BIT_NORM) {
+            return Err(GpuError::Runtime(
+                "sample format u16 needs R16Unorm textures (TEXTURE_FORMAT_16BIT_NORM), which this adapter lacks; use --format f16, u8 or f32".into(),
+            ));
+        }
+        let (lo, hi) = v.sample_range();
+        let map = format.map_for(lo, hi);
+        let mut dv = DeviceVolume {
+            layout,
+            texture_view: None,
+            pages_view: None,
+            sampler: None,
+            buffers: vec![],
+            bytes: 0,
+            dims: v.dims,
+            lattice: v.lattice.clone(),
+            format,
+            map,
+            bricks: None,
+        };
         match layout {
             Layout::Embedded => {
                 crate::limits::check_volume_limits(v.dims, v.dims, layout, &gpu.limits())
                     .map_err(|e| GpuError::Runtime(e.to_string()))?;
-                let [nx, ny, nz] = v.dims;
-                let view = r32_texture_3d(gpu, "embedded samples", [nx as u32, ny as u32, nz as u32], &v.data)?;
-                Ok(DeviceVolume {
-                    layout,
-                    texture_view: Some(view),
-                    sampler: None,
-                    buffers: vec![],
-                    bytes: v.data.len() * 4,
-                    dims: v.dims,
-                    lattice: v.lattice.clone(),
-                })
+                let bytes = format.encode(&v.data, map).map_err(runtime)?;
+                let size = v.dims.map(|n| n as u32);
+                dv.texture_view = Some(texture_3d(gpu, "embedded samples", size, format.texture_format(), &bytes)?);
+                dv.bytes = bytes.len();
             }
             Layout::Packed => {
-                let p = v.packed().map_err(|e| GpuError::Runtime(e.to_string()))?;
+                let p = v.packed().map_err(runtime)?;
                 crate::limits::check_volume_limits(v.dims, p.texture, layout, &gpu.limits())
                     .map_err(|e| GpuError::Runtime(e.to_string()))?;
-                let [tx, ty, tz] = p.texture;
-                let view = r32_texture_3d(gpu, "packed samples", [tx as u32, ty as u32, tz as u32], &p.words)?;
-                let grid = gpu.uniform_buffer("packed grid", bytemuck::cast_slice(&p.grid));
-                Ok(DeviceVolume {
-                    layout,
-                    texture_view: Some(view),
-                    sampler: None,
-                    buffers: vec![grid],
-                    bytes: p.words.len() * 4,
-                    dims: v.dims,
-                    lattice: v.lattice.clone(),
-                })
+                let bytes = format.encode(&p.words, map).map_err(runtime)?;
+                let size = p.texture.map(|n| n as u32);
+                dv.texture_view = Some(texture_3d(gpu, "packed samples", size, format.texture_format(), &bytes)?);
+                dv.buffers.push(gpu.uniform_buffer("packed grid", bytemuck::cast_slice(&p.grid)));
+                dv.bytes = bytes.len();
+            }
+            Layout::Bricked => {
+                let max = options.max_pool_edge.unwrap_or(gpu.limits().max_texture_dimension_3d as usize);
+                let b = v.bricked(options.bricks, max).map_err(runtime)?;
+                let bytes = format.encode(&b.pool, map).map_err(runtime)?;
+                let size = b.pool_size().map(|n| n as u32);
+                dv.texture_view = Some(texture_3d(gpu, "brick pool", size, format.texture_format(), &bytes)?);
+                let pages = b.bricks.map(|n| n as u32);
+                dv.pages_view = Some(texture_3d(
+                    gpu,
+                    "page table",
+                    pages,
+                    wgpu::TextureFormat::R32Uint,
+                    bytemuck::cast_slice(&b.pages),
+                )?);
+                dv.buffers.push(gpu.uniform_buffer("bricks", bytemuck::cast_slice(&b.uniform)));
+                dv.bytes = bytes.len() + b.pages.len() * 4;
+                dv.bricks = Some(options.bricks);
             }
         }
+        Ok(dv)
     }
 
     /// The samples bound for hardware-filtered fetches (modules emitted with
@@ -72,6 +148,11 @@ impl DeviceVolume {
                 "fetch = linear needs hardware filtering of R32Float textures (FLOAT32_FILTERABLE), which this adapter lacks; use exact fetches".into(),
             ));
         }
+        if layout == Layout::Bricked {
+            return Err(GpuError::Runtime(
+                "fetch = linear is not offered on the bricked layout; use exact fetches or the packed layout".into(),
+            ));
+        }
         let mut dv = DeviceVolume::new(gpu, v, layout)?;
         dv.sampler = Some(linear_sampler(gpu, "linear samples"));
         Ok(dv)
@@ -82,70 +163,101 @@ impl DeviceVolume {
         self.sampler.is_some()
     }
 
-    /// Layout entries starting at `first` (binding numbers used by the emitter).
-    pub fn layout_entries(&self, first: u32, visibility: wgpu::ShaderStages) -> Vec<wgpu::BindGroupLayoutEntry> {
-        match self.layout {
-            Layout::Embedded => {
-                let mut e = vec![texture_3d_entry(first, visibility, self.filtered())];
-                if self.filtered() {
-                    e.push(sampler_entry(first + 4, visibility));
-                }
-                e
-            }
-            Layout::Packed => {
-                let mut e = vec![
-                    texture_3d_entry(first, visibility, self.filtered()),
-                    wgpu::BindGroupLayoutEntry {
-                        binding: first + 1,
-                        visibility,
-                        ty: wgpu::BindingType::Buffer {
-                            ty: wgpu::BufferBindingType::Uniform,
-                            has_dynamic_offset: false,
-                            min_binding_size: None,
-                        },
-                        count: None,
-                    },
-                ];
-                if self.filtered() {
-                    e.push(sampler_entry(first + 4, visibility));
-                }
-                e
+    /// The emitter's options for a module that reads this volume: its layout
+    /// and sample map (the rest default).
+    pub fn emit_options(&self, command: &str) -> boxforge::emit::EmitOptions {
+        boxforge::emit::EmitOptions {
+            layout: self.layout,
+            samples: self.map,
+            command: command.into(),
+            ..Default::default()
+        }
+    }
+
+    /// Refuses a bricked volume whose halo is narrower than filter `d`'s
+    /// stencils reach (its fetches would leave the slot).
+    pub fn check_filter(&self, d: &boxforge::derive::Derivation) -> Result<(), GpuError> {
+        if let Some(b) = self.bricks {
+            let need = boxforge::emit::bricks::brick_halo(d);
+            if b.halo < need {
+                return Err(GpuError::Runtime(format!(
+                    "the volume's bricks have a halo of {} texels but filter {} reaches {need}; build the volume with BrickShape::for_filter",
+                    b.halo, d.filter.name
+                )));
             }
         }
+        Ok(())
+    }
+
+    /// Layout entries starting at `first` (binding numbers used by the emitter).
+    pub fn layout_entries(&self, first: u32, visibility: wgpu::ShaderStages) -> Vec<wgpu::BindGroupLayoutEntry> {
+        let uniform = |binding: u32| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Uniform,
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        };
+        let mut e = vec![texture_3d_entry(first, visibility, self.filtered())];
+        match self.layout {
+            Layout::Embedded => {}
+            Layout::Packed => e.push(uniform(first + 1)),
+            Layout::Bricked => {
+                e.push(uniform(first + 1));
+                e.push(wgpu::BindGroupLayoutEntry {
+                    binding: first + 2,
+                    visibility,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Uint,
+                        view_dimension: wgpu::TextureViewDimension::D3,
+                        multisampled: false,
+                    },
+                    count: None,
+                });
+            }
+        }
+        if self.filtered() {
+            e.push(sampler_entry(first + 4, visibility));
+        }
+        e
     }
 
     /// Bind-group entries matching [`DeviceVolume::layout_entries`].
     pub fn bind_entries(&self, first: u32) -> Vec<wgpu::BindGroupEntry<'_>> {
+        let view = self.texture_view.as_ref().expect("every layout uploads a texture");
+        let mut e = vec![wgpu::BindGroupEntry { binding: first, resource: wgpu::BindingResource::TextureView(view) }];
         match self.layout {
-            Layout::Embedded => {
-                let mut e = vec![wgpu::BindGroupEntry {
-                    binding: first,
-                    resource: wgpu::BindingResource::TextureView(self.texture_view.as_ref().unwrap()),
-                }];
-                if let Some(s) = &self.sampler {
-                    e.push(wgpu::BindGroupEntry { binding: first + 4, resource: wgpu::BindingResource::Sampler(s) });
-                }
-                e
-            }
+            Layout::Embedded => {}
             Layout::Packed => {
-                let mut e = vec![
-                    wgpu::BindGroupEntry {
-                        binding: first,
-                        resource: wgpu::BindingResource::TextureView(self.texture_view.as_ref().unwrap()),
-                    },
-                    wgpu::BindGroupEntry { binding: first + 1, resource: self.buffers[0].as_entire_binding() },
-                ];
-                if let Some(s) = &self.sampler {
-                    e.push(wgpu::BindGroupEntry { binding: first + 4, resource: wgpu::BindingResource::Sampler(s) });
-                }
-                e
+                e.push(wgpu::BindGroupEntry { binding: first + 1, resource: self.buffers[0].as_entire_binding() })
+            }
+            Layout::Bricked => {
+                e.push(wgpu::BindGroupEntry { binding: first + 1, resource: self.buffers[0].as_entire_binding() });
+                let pages = self.pages_view.as_ref().expect("the bricked layout uploads its page table");
+                e.push(wgpu::BindGroupEntry {
+                    binding: first + 2,
+                    resource: wgpu::BindingResource::TextureView(pages),
+                });
             }
         }
+        if let Some(s) = &self.sampler {
+            e.push(wgpu::BindGroupEntry { binding: first + 4, resource: wgpu::BindingResource::Sampler(s) });
+        }
+        e
     }
 }
 
-/// An R32Float 3D texture of `size` texels filled with `data` (x fastest).
-fn r32_texture_3d(gpu: &Gpu, label: &str, size: [u32; 3], data: &[f32]) -> Result<wgpu::TextureView, GpuError> {
+/// A 3D texture of `format` and `size` texels filled with `bytes` (x fastest).
+fn texture_3d(
+    gpu: &Gpu,
+    label: &str,
+    size: [u32; 3],
+    format: wgpu::TextureFormat,
+    bytes: &[u8],
+) -> Result<wgpu::TextureView, GpuError> {
     let tex = gpu.checked(&format!("upload {label}"), || {
         gpu.device.create_texture_with_data(
             &gpu.queue,
@@ -155,13 +267,29 @@ fn r32_texture_3d(gpu: &Gpu, label: &str, size: [u32; 3], data: &[f32]) -> Resul
                 mip_level_count: 1,
                 sample_count: 1,
                 dimension: wgpu::TextureDimension::D3,
-                format: wgpu::TextureFormat::R32Float,
+                format,
                 usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
                 view_formats: &[],
             },
             wgpu::util::TextureDataOrder::LayerMajor,
-            bytemuck::cast_slice(data),
+            bytes,
         )
     })?;
     Ok(tex.create_view(&wgpu::TextureViewDescriptor::default()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::DEFAULT_HALO;
+
+    #[test]
+    fn the_default_halo_covers_every_builtin_filter() {
+        for name in boxforge::spec::catalog::names() {
+            let d = boxforge::derive::Derivation::new(&boxforge::spec::catalog::get(name).unwrap()).unwrap();
+            if d.facts.dim == 3 {
+                let h = boxforge::emit::bricks::brick_halo(&d);
+                assert!(h <= DEFAULT_HALO, "{name} needs a halo of {h}, over DEFAULT_HALO {DEFAULT_HALO}");
+            }
+        }
+    }
 }

@@ -58,6 +58,12 @@ pub enum VolumeError {
     /// The lattice has no coset-packed layout, or the packed grid is too large.
     #[error("no packed layout for lattice {lattice}: {message}")]
     Packed { lattice: String, message: String },
+    /// A brick shape or pool that cannot hold the volume.
+    #[error("bricked layout: {message}")]
+    Bricks { message: String },
+    /// A sample format that cannot hold the data.
+    #[error("sample format {format}: {message}")]
+    Format { format: &'static str, message: String },
 }
 
 /// Number of samples of a box, or an error for zero or overflowing dims.

@@ -12,9 +12,11 @@
 
 use boxforge::spec::lattice::Lattice;
 
+mod bricks;
 mod convert;
 mod device;
 mod error;
+mod format;
 #[cfg(feature = "nifti")]
 mod nifti;
 #[cfg(not(feature = "nifti"))]
@@ -25,8 +27,10 @@ mod synthetic;
 #[cfg(test)]
 mod testutil;
 
-pub use device::DeviceVolume;
+pub use bricks::{slot_grid, BrickShape, BrickedVolume};
+pub use device::{DeviceVolume, VolumeOptions, DEFAULT_HALO};
 pub use error::VolumeError;
+pub use format::SampleFormat;
 pub use packing::PackedVolume;
 pub use raw::{parse_raw_spec, RawType};
 pub use synthetic::{marschner_lobb, marschner_lobb_grad, ml_position};
@@ -111,6 +115,25 @@ pub struct LatticeVolume {
 }
 
 impl LatticeVolume {
+    /// (min, max) of the samples at lattice points ((0, 0) when there are
+    /// none; NaNs ignored): the range compact formats spread their levels over.
+    pub fn sample_range(&self) -> (f32, f32) {
+        let [nx, ny, _] = self.dims;
+        let (lo, hi) = self
+            .data
+            .iter()
+            .enumerate()
+            .filter(|(i, v)| {
+                !v.is_nan() && self.lattice.contains(&[(i % nx) as i64, ((i / nx) % ny) as i64, (i / (nx * ny)) as i64])
+            })
+            .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), (_, &v)| (lo.min(v), hi.max(v)));
+        if lo > hi {
+            (0.0, 0.0)
+        } else {
+            (lo, hi)
+        }
+    }
+
     /// Whether integer point `j` is a lattice point (ignores the box).
     pub fn is_lattice(&self, j: &[i64]) -> bool {
         self.lattice.contains(j)

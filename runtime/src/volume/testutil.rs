@@ -57,3 +57,21 @@ pub(super) fn test_volume(dims: [usize; 3]) -> Volume {
     let n = dims[0] * dims[1] * dims[2];
     Volume::new(dims, (0..n).map(|i| 1.0 + i as f32).collect()).unwrap()
 }
+
+/// A lattice volume of `dims` on lattice `name` whose samples all differ
+/// (a ramp over the texel index at lattice points, 0 elsewhere).
+pub(super) fn ramp_volume(name: &str, dims: [usize; 3]) -> super::LatticeVolume {
+    let lattice = lattice(name);
+    let mut data = vec![0f32; dims[0] * dims[1] * dims[2]];
+    for z in 0..dims[2] {
+        for y in 0..dims[1] {
+            for x in 0..dims[0] {
+                let i = x + dims[0] * (y + dims[1] * z);
+                if lattice.contains(&[x as i64, y as i64, z as i64]) {
+                    data[i] = 1.0 + i as f32;
+                }
+            }
+        }
+    }
+    super::LatticeVolume { lattice, dims, data }
+}

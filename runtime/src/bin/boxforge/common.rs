@@ -45,6 +45,9 @@ impl From<String> for Failure {
 pub enum LayoutArg {
     Embedded,
     Packed,
+    /// Bricks of --brick texels with halos in a pool texture, one page-table
+    /// lookup per evaluation (volumes past the 3D texture limit).
+    Bricked,
 }
 
 impl From<LayoutArg> for Layout {
@@ -52,6 +55,32 @@ impl From<LayoutArg> for Layout {
         match l {
             LayoutArg::Embedded => Layout::Embedded,
             LayoutArg::Packed => Layout::Packed,
+            LayoutArg::Bricked => Layout::Bricked,
+        }
+    }
+}
+
+/// `--format`: how samples are stored on the device.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum FormatArg {
+    /// 32-bit float (exact).
+    F32,
+    /// 16-bit float (11 significant bits).
+    F16,
+    /// 16-bit normalized over the data range (65536 levels).
+    U16,
+    /// 8-bit normalized over the data range (256 levels).
+    U8,
+}
+
+impl From<FormatArg> for boxforge_runtime::volume::SampleFormat {
+    fn from(f: FormatArg) -> Self {
+        use boxforge_runtime::volume::SampleFormat;
+        match f {
+            FormatArg::F32 => SampleFormat::F32,
+            FormatArg::F16 => SampleFormat::F16,
+            FormatArg::U16 => SampleFormat::U16,
+            FormatArg::U8 => SampleFormat::U8,
         }
     }
 }

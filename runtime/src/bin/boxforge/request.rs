@@ -236,6 +236,8 @@ pub fn volume_over_limits(vol: &LatticeVolume, layout: Layout, limits: &wgpu::Li
         Layout::Embedded => vol.dims,
         // No packed layout: DeviceVolume::new says why.
         Layout::Packed => vol.packed_texture_size()?,
+        // Bricks refold into a pool that fits; the pool's own refusal says why not.
+        Layout::Bricked => return None,
     };
     limits::check_volume_limits(vol.dims, texture, layout, limits).err().map(|e| device_limit(&e))
 }
@@ -384,5 +386,18 @@ mod tests {
         let largest: u32 = e.rsplit("--qc ").next().unwrap().split(' ').next().unwrap().parse().unwrap();
         assert!(check_cache("perm", "dvr", Some(largest), None).is_ok());
         assert!(check_cache("perm", "dvr", Some(largest + 1), None).is_err());
+    }
+}
+
+/// `--brick`: only with `--layout bricked`, and an edge of 2 to 1024 texels.
+pub fn check_brick(brick: Option<usize>, layout: Layout) -> Result<(), String> {
+    match brick {
+        Some(_) if layout != Layout::Bricked => {
+            Err("--brick sizes the bricks of the bricked layout: add --layout bricked, or drop --brick".into())
+        }
+        Some(b) if !(2..=1024).contains(&b) => {
+            Err(format!("--brick {b}: a brick edge is 2 to 1024 lattice texels; e.g. --brick 32"))
+        }
+        _ => Ok(()),
     }
 }

@@ -90,6 +90,8 @@ pub struct DvrOptions {
     pub frames: usize,
     /// Render in bands of rows with a progress bar on stderr.
     pub progress: bool,
+    /// How the one-shot [`render`] stores the samples (format, bricks).
+    pub volume: crate::volume::VolumeOptions,
 }
 
 impl Default for DvrOptions {
@@ -108,6 +110,7 @@ impl Default for DvrOptions {
             termination: 0.99,
             frames: 3,
             progress: false,
+            volume: Default::default(),
         }
     }
 }
@@ -152,18 +155,31 @@ pub(crate) fn dvr_template_with(name: &str, lookup: bool, host_depth: bool) -> S
 
 /// The emitted module with the DVR template appended.
 pub fn shader_source(d: &Derivation, layout: Layout) -> Result<String, GpuError> {
-    shader_source_with(d, layout, false)
+    shader_source_with(d, &module_options(layout), false)
 }
+
+/// The emitter's options for a DVR module in `layout` (f32 samples).
+fn module_options(layout: Layout) -> EmitOptions {
+    EmitOptions { layout, command: DVR_COMMAND.into(), ..Default::default() }
+}
+
+/// The command DVR modules name in their header.
+pub(crate) const DVR_COMMAND: &str = "boxforge render --mode dvr";
 
 /// [`shader_source`], with `lookup` the ray caster sampling through
 /// `<f>_perm_sample` ([`dvr_template`]), which the caller appends.
-pub(crate) fn shader_source_with(d: &Derivation, layout: Layout, lookup: bool) -> Result<String, GpuError> {
-    Ok(format!("{}\n{}", filter_module(d, layout)?, dvr_template(&d.filter.name, lookup)))
+pub(crate) fn shader_source_with(d: &Derivation, module: &EmitOptions, lookup: bool) -> Result<String, GpuError> {
+    Ok(format!("{}\n{}", filter_module_with(d, module)?, dvr_template(&d.filter.name, lookup)))
 }
 
 /// The emitted filter module (fetch, eval, eval_grad, min/max kernel).
 pub(crate) fn filter_module(d: &Derivation, layout: Layout) -> Result<String, GpuError> {
-    let module = emit(d, &EmitOptions { layout, command: "boxforge render --mode dvr".into(), ..Default::default() })
-        .map_err(|e| GpuError::Runtime(e.to_string()))?;
+    filter_module_with(d, &module_options(layout))
+}
+
+/// [`filter_module`] with the emitter's options (a volume's
+/// [`DeviceVolume::emit_options`](crate::volume::DeviceVolume::emit_options)).
+pub(crate) fn filter_module_with(d: &Derivation, module: &EmitOptions) -> Result<String, GpuError> {
+    let module = emit(d, module).map_err(|e| GpuError::Runtime(e.to_string()))?;
     Ok(module.source)
 }

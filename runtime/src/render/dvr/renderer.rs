@@ -13,7 +13,7 @@
 use super::params::{dvr_params_for, DvrParams};
 use super::skip::{empty_flags, skip_distances};
 use super::transfer::TransferFunction;
-use super::{dvr_template_with, filter_module, DvrOptions};
+use super::{dvr_template_with, filter_module_with, DvrOptions};
 use crate::gpu::binding::layout_entries_from;
 use crate::gpu::{Gpu, GpuError};
 use crate::render::blocks::block_bounds;
@@ -86,7 +86,9 @@ impl DvrRenderer {
         look: DvrLook,
     ) -> Result<DvrRenderer, RenderError> {
         let name = &d.filter.name;
-        let source = format!("{}\n{}", filter_module(d, volume.layout)?, dvr_template_with(name, false, true));
+        volume.check_filter(d)?;
+        let module = filter_module_with(d, &volume.emit_options(super::DVR_COMMAND))?;
+        let source = format!("{}\n{}", module, dvr_template_with(name, false, true));
         let shader = gpu.compile(&format!("{name}.dvr.wgsl"), &source)?;
         // Group 1 (parameters, image, skipping flags, tables, host depth) as the template declares it.
         let bindings = boxforge::validate::bindings_of_wgsl(&source)

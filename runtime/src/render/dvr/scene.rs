@@ -1,12 +1,12 @@
 //! A volume on the device ready for DVR, and its ray caster.
 
-use super::{dvr_params, empty_flags, shader_source, skip_distances, widen_bounds, DvrOptions, DvrParams};
+use super::{dvr_params, empty_flags, shader_source_with, skip_distances, widen_bounds, DvrOptions, DvrParams};
 use crate::gpu::binding::{storage_entry, uniform_entry};
 use crate::gpu::{Gpu, GpuError};
 use crate::render::blocks::block_bounds;
 use crate::render::dvr::transfer::{Preint, Tf1d, TransferFunction};
 use crate::render::iso::Frame;
-use crate::volume::{DeviceVolume, LatticeVolume};
+use crate::volume::{DeviceVolume, LatticeVolume, VolumeOptions};
 use boxforge::derive::Derivation;
 use boxforge::emit::Layout;
 
@@ -37,9 +37,24 @@ impl<'a> DvrScene<'a> {
         layout: Layout,
         block: i32,
     ) -> Result<DvrScene<'a>, GpuError> {
+        Self::with_volume(gpu, d, vol, layout, block, &VolumeOptions::default())
+    }
+
+    /// [`DvrScene::new`] with the samples stored as `volume` says (a
+    /// compact format, a brick shape): the module is emitted for them.
+    pub fn with_volume(
+        gpu: &'a Gpu,
+        d: &'a Derivation,
+        vol: &'a LatticeVolume,
+        layout: Layout,
+        block: i32,
+        volume: &VolumeOptions,
+    ) -> Result<DvrScene<'a>, GpuError> {
         let name = &d.filter.name;
-        let source = shader_source(d, layout)?;
-        Self::with_source(gpu, d, vol, layout, block, Custom { name, source: &source, minmax: name, reach: 0 })
+        let dv = DeviceVolume::with_options(gpu, vol, layout, volume)?;
+        dv.check_filter(d)?;
+        let source = shader_source_with(d, &dv.emit_options(super::DVR_COMMAND), false)?;
+        Self::with_device_volume(gpu, d, vol, dv, block, Custom { name, source: &source, minmax: name, reach: 0 })
     }
 
     /// A scene whose ray caster evaluates a function other than `d`'s
@@ -57,10 +72,22 @@ impl<'a> DvrScene<'a> {
         block: i32,
         custom: Custom<'_>,
     ) -> Result<DvrScene<'a>, GpuError> {
+        let dv = DeviceVolume::new(gpu, vol, layout)?;
+        Self::with_device_volume(gpu, d, vol, dv, block, custom)
+    }
+
+    /// [`DvrScene::with_source`] over samples already on the device.
+    fn with_device_volume(
+        gpu: &'a Gpu,
+        d: &'a Derivation,
+        vol: &'a LatticeVolume,
+        dv: DeviceVolume,
+        block: i32,
+        custom: Custom<'_>,
+    ) -> Result<DvrScene<'a>, GpuError> {
         let name = custom.name;
         let shader = gpu.compile(&format!("{name}.dvr.wgsl"), custom.source)?;
         let dev = &gpu.device;
-        let dv = DeviceVolume::new(gpu, vol, layout)?;
         let bounds = if custom.reach > 0 {
             let cells = block_bounds(gpu, &shader, custom.minmax, &dv, vol.dims, 1)?;
             widen_bounds(&cells, vol.dims, block as usize, custom.reach)
@@ -195,5 +222,5 @@ pub fn render(
     tf: &TransferFunction,
     o: &DvrOptions,
 ) -> Result<Frame, GpuError> {
-    DvrScene::new(gpu, d, vol, layout, o.block)?.render(tf, o)
+    DvrScene::with_volume(gpu, d, vol, layout, o.block, &o.volume)?.render(tf, o)
 }

@@ -40,6 +40,8 @@ pub struct RenderOptions {
     pub progress: bool,
     /// How a ray finds the surface: exactly, piece by piece, or by fixed steps.
     pub hit: HitMode,
+    /// How the one-shot renders store the samples (format, bricks).
+    pub volume: crate::volume::VolumeOptions,
 }
 
 /// How the ray caster finds the first iso-surface crossing along a ray.
@@ -92,6 +94,7 @@ impl Default for RenderOptions {
             frames: 3,
             progress: false,
             hit: HitMode::default(),
+            volume: Default::default(),
         }
     }
 }
@@ -201,21 +204,20 @@ pub fn raycast_shader(
     fine: (i32, [i32; 3]),
     command: &str,
 ) -> Result<String, GpuError> {
-    raycast_shader_with(d, layout, hit, fine, command, false)
+    let opts = EmitOptions { layout, command: command.into(), ..Default::default() };
+    raycast_shader_with(d, &opts, hit, fine, false)
 }
 
 /// [`raycast_shader`], with `host_depth` the host-depth input of
 /// [`renderer::IsoRenderer`] (group 1, bindings 6 and 7).
 pub(crate) fn raycast_shader_with(
     d: &Derivation,
-    layout: Layout,
+    module: &EmitOptions,
     hit: HitMode,
     fine: (i32, [i32; 3]),
-    command: &str,
     host_depth: bool,
 ) -> Result<String, GpuError> {
-    let module = emit(d, &EmitOptions { layout, command: command.into(), ..Default::default() })
-        .map_err(|e| GpuError::Runtime(e.to_string()))?;
+    let module = emit(d, module).map_err(|e| GpuError::Runtime(e.to_string()))?;
     let plan = HitPlan::new(d);
     let exact = (hit == HitMode::Exact).then_some((&plan, fine.0, fine.1));
     Ok(format!("{}\n{}", module.source, template::template(&d.filter.name, exact, host_depth)))
@@ -256,7 +258,7 @@ pub fn render_with_depth(
         RenderError::Gpu(g) => g,
         other => GpuError::Runtime(other.to_string()),
     };
-    let dv = DeviceVolume::new(gpu, vol, layout)?;
+    let dv = DeviceVolume::with_options(gpu, vol, layout, &o.volume)?;
     let options = renderer::IsoOptions {
         iso: o.iso,
         step: o.step,

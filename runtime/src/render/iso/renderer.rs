@@ -83,14 +83,9 @@ impl IsoRenderer {
     ) -> Result<IsoRenderer, RenderError> {
         let name = d.filter.name.clone();
         let fine = fine_grid(volume.dims, options.block);
-        let source = raycast_shader_with(
-            d,
-            volume.layout,
-            options.hit,
-            fine,
-            "boxforge_runtime::render::iso::IsoRenderer",
-            true,
-        )?;
+        volume.check_filter(d)?;
+        let module = volume.emit_options("boxforge_runtime::render::iso::IsoRenderer");
+        let source = raycast_shader_with(d, &module, options.hit, fine, true)?;
         let shader = gpu.compile(&format!("{name}.raycast.wgsl"), &source)?;
         let bounds = block_bounds(gpu, &shader, &name, volume, volume.dims, options.block)?;
         let empty: Vec<u32> = bounds.iter().map(|b| (options.iso < b[0] || options.iso > b[1]) as u32).collect();

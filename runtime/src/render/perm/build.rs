@@ -8,7 +8,7 @@ use crate::gpu::{Gpu, GpuError};
 use crate::render::blocks::block_bounds;
 use crate::render::dvr::caster::Extra;
 use crate::render::dvr::transfer::Tf1d;
-use crate::render::dvr::{caster_entries, filter_module, shader_source_with, DvrScene};
+use crate::render::dvr::{caster_entries, filter_module_with, shader_source_with, DvrScene};
 use crate::volume::DeviceVolume;
 use std::time::Instant;
 use wgpu::util::DeviceExt;
@@ -168,10 +168,9 @@ impl PermCache {
         if dims[0] > MAX_ROW {
             return Err(PermError::RowTooLong { cells: dims[0] });
         }
-        let layout = volume.layout;
         let build_src = format!(
             "{}\n{}",
-            filter_module(d, layout)?,
+            filter_module_with(d, &volume.emit_options(crate::render::dvr::DVR_COMMAND))?,
             template(include_str!("../../../../templates/perm_build.wgsl.j2"), name)
         );
         let build = gpu.compile(&format!("{name}.perm_build.wgsl"), &build_src)?;
@@ -244,7 +243,7 @@ impl PermCache {
 
         let render_src = format!(
             "{}\n{}",
-            shader_source_with(d, layout, true)?,
+            shader_source_with(d, &volume.emit_options(crate::render::dvr::DVR_COMMAND), true)?,
             template(include_str!("../../../../templates/perm.wgsl.j2"), name)
         );
         let shader = gpu.compile(&format!("{name}.dvr_perm.wgsl"), &render_src)?;

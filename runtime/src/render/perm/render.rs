@@ -75,7 +75,8 @@ pub fn render(
     quant: Quant,
     peel: bool,
 ) -> Result<(Frame, PermCache), PermError> {
-    let volume = DeviceVolume::new(gpu, vol, layout)?;
+    let volume = DeviceVolume::with_options(gpu, vol, layout, &o.volume)?;
+    volume.check_filter(d)?;
     let mut renderer = PermRenderer::new(gpu, d, &volume, tf, look_of(o), quant, peel)?;
     let frame = renderer.timed_frames(o)?;
     Ok((frame, renderer.into_cache()))

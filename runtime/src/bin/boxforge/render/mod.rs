@@ -4,7 +4,7 @@
 
 mod dvr;
 
-use crate::common::{parse_view, Failure, LayoutArg};
+use crate::common::{parse_view, Failure, FormatArg, LayoutArg};
 use crate::request;
 use boxforge::derive::Derivation;
 use boxforge::emit::Layout;
@@ -91,6 +91,14 @@ pub struct RenderArgs {
     hit: HitArg,
     #[arg(long, value_enum, default_value = "embedded")]
     layout: LayoutArg,
+    /// Brick edge in lattice texels (with --layout bricked; the halo is the
+    /// filter's stencil reach + 1).
+    #[arg(long)]
+    brick: Option<usize>,
+    /// How samples are stored on the device: f32, or compact f16, u16 or u8
+    /// (normalized over the data range; the error is stated).
+    #[arg(long, value_enum, default_value = "f32")]
+    format: FormatArg,
     #[arg(long)]
     adapter: Option<String>,
     #[arg(long, default_value = "out.png")]
@@ -189,6 +197,7 @@ pub fn run(a: RenderArgs) -> Result<(), Failure> {
         _ => None,
     };
     let layout = Layout::from(a.layout);
+    request::check_brick(a.brick, layout)?;
     // Mattausch et al.'s hand-written plane-stack schemes: ray-cast DVR on BCC only.
     let scheme = Scheme::parse(&a.filter);
     if let Some(s) = scheme {
@@ -241,6 +250,30 @@ pub fn run(a: RenderArgs) -> Result<(), Failure> {
     if let Some(w) = warning {
         eprintln!("{w}");
     }
+    let format = boxforge_runtime::volume::SampleFormat::from(a.format);
+    let volume = boxforge_runtime::volume::VolumeOptions {
+        format,
+        bricks: boxforge_runtime::volume::BrickShape {
+            edge: a.brick.unwrap_or(boxforge_runtime::volume::BrickShape::DEFAULT_EDGE),
+            halo: boxforge::emit::bricks::brick_halo(&d),
+        },
+        max_pool_edge: None,
+    };
+    let custom_volume = format != boxforge_runtime::volume::SampleFormat::F32 || layout == Layout::Bricked;
+    if custom_volume && (scheme.is_some() || pt) {
+        return Err(Failure(
+            "--format and --layout bricked store the samples of the spline ray casters (iso, DVR, PERM); the schemes and --renderer pt read f32 embedded samples: drop them or use the ray casters".into(),
+        ));
+    }
+    if format != boxforge_runtime::volume::SampleFormat::F32 {
+        let (slo, shi) = vol.sample_range();
+        eprintln!(
+            "samples stored as {}: {} bytes each, at most {:.3e} from the data (half a level over [{slo}, {shi}])",
+            format.name(),
+            format.bytes(),
+            format.max_error(slo, shi)
+        );
+    }
     let gpu = Gpu::new(a.adapter.as_deref()).map_err(|e| Failure(e.to_string()))?;
     request::check_image_limits(size, &gpu.limits())?;
     let shown = scheme.map_or(f.name.as_str(), |s| s.name());
@@ -265,6 +298,7 @@ pub fn run(a: RenderArgs) -> Result<(), Failure> {
                 step: a.step,
                 progress: true,
                 frames: 1,
+                volume,
                 ..Default::default()
             };
             dvr::frame(&gpu, &d, &vol, layout, tf, &o, how)
@@ -283,6 +317,7 @@ pub fn run(a: RenderArgs) -> Result<(), Failure> {
                 hit: a.hit.into(),
                 progress: true,
                 frames: 1,
+                volume,
                 ..RenderOptions::default()
             };
             render::render(&gpu, &d, &vol, layout, &opts).map_err(|e| e.to_string())
