@@ -105,7 +105,7 @@ pub fn translated_files(
 }
 
 /// Every layout and variant.
-pub const ALL_LAYOUTS: [Layout; 2] = [Layout::Embedded, Layout::Packed];
+pub const ALL_LAYOUTS: [Layout; 3] = [Layout::Embedded, Layout::Packed, Layout::Bricked];
 /// Both code shapes, for generating every file.
 pub const ALL_VARIANTS: [Variant; 2] = [Variant::Fast, Variant::Naive];
 

@@ -84,39 +84,49 @@ impl SampleFormat {
     /// The map for data in [lo, hi]: normalized formats spread the range over
     /// their levels, float formats store values as they are.
     pub fn map_for(self, lo: f32, hi: f32) -> SampleMap {
-        let levels = match self {
-            SampleFormat::F32 | SampleFormat::F16 => return SampleMap::IDENTITY,
-            SampleFormat::U16 => 1.0,
-            SampleFormat::U8 => 1.0,
-        };
+        if matches!(self, SampleFormat::F32 | SampleFormat::F16) {
+            return SampleMap::IDENTITY;
+        }
+        // Unorm texels read as k / (levels - 1) in [0, 1]: the map spans the range.
         let span = hi - lo;
         if span > 0.0 && span.is_finite() {
-            SampleMap { scale: span / levels, offset: lo }
+            SampleMap { scale: span, offset: lo }
         } else {
-            SampleMap { scale: 1.0, offset: lo }
+            SampleMap { scale: 1.0, offset: if lo.is_finite() { lo } else { 0.0 } }
         }
     }
 
-    /// The stored bytes of `values` (texels, x fastest) with `map`, checked:
-    /// non-finite samples and f16 overflow are refused.
-    pub fn encode(self, values: &[f32], map: SampleMap) -> Result<Vec<u8>, VolumeError> {
+    /// Whether the format can hold `values`: compact formats refuse
+    /// non-finite samples (a normalized range needs finite ends), f16
+    /// refuses magnitudes past 65504 (they would become infinities).
+    pub fn check_values(self, values: &[f32]) -> Result<(), VolumeError> {
+        if self == SampleFormat::F32 {
+            return Ok(());
+        }
         if let Some(v) = values.iter().find(|v| !v.is_finite()) {
             return Err(VolumeError::Format {
                 format: self.name(),
-                message: format!("the data holds {v}, which no sample format stores; clean the volume first"),
+                message: format!("the data holds {v}, which a compact format cannot store; use --format f32"),
             });
         }
+        if self == SampleFormat::F16 {
+            if let Some(v) = values.iter().find(|v| v.abs() > 65504.0) {
+                return Err(VolumeError::Format {
+                    format: self.name(),
+                    message: format!("{v} is past f16's largest value 65504; use --format f32, u16 or u8"),
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// The stored bytes of `values` (texels, x fastest) with `map`, after
+    /// [`SampleFormat::check_values`].
+    pub fn encode(self, values: &[f32], map: SampleMap) -> Result<Vec<u8>, VolumeError> {
+        self.check_values(values)?;
         Ok(match self {
             SampleFormat::F32 => bytemuck::cast_slice(values).to_vec(),
-            SampleFormat::F16 => {
-                if let Some(v) = values.iter().find(|v| v.abs() > 65504.0) {
-                    return Err(VolumeError::Format {
-                        format: self.name(),
-                        message: format!("{v} is past f16's largest value 65504; use --format f32, u16 or u8"),
-                    });
-                }
-                values.iter().flat_map(|&v| half::f16::from_f32(v).to_le_bytes()).collect()
-            }
+            SampleFormat::F16 => values.iter().flat_map(|&v| half::f16::from_f32(v).to_le_bytes()).collect(),
             SampleFormat::U16 => {
                 let q = |v: f32| (((v - map.offset) / map.scale).clamp(0.0, 1.0) * 65535.0).round() as u16;
                 values.iter().flat_map(|&v| q(v).to_le_bytes()).collect()
@@ -169,6 +179,7 @@ mod tests {
         assert!(e.to_string().contains("65504"), "{e}");
         let e = SampleFormat::U8.encode(&[1.0, f32::NAN], SampleMap::IDENTITY).unwrap_err();
         assert!(e.to_string().contains("NaN"), "{e}");
+        assert!(SampleFormat::F32.check_values(&[f32::NAN, 1e30]).is_ok(), "f32 stores anything");
     }
 
     #[test]

@@ -239,7 +239,8 @@ pub fn write_site(
         let layouts: Vec<Layout> = ALL_LAYOUTS
             .iter()
             .copied()
-            .filter(|&l| l == Layout::Embedded || coset_pivots(&f.lattice).is_ok())
+            // The viewer binds the embedded and packed layouts (bricks: the runtime).
+            .filter(|&l| l == Layout::Embedded || (l == Layout::Packed && coset_pivots(&f.lattice).is_ok()))
             .collect();
         for &layout in &layouts {
             for hit in [HitMode::Step, HitMode::Exact] {

@@ -38,6 +38,8 @@ fn fixtures() -> PathBuf {
     w("truncated.nii.gz", &[0x1f, 0x8b, 0x08, 0x00, 0x00]);
     w("notnifti.nii", b"this is not a nifti file at all, just text that is long enough to look like a header");
     w("small.raw", &[0u8; 100]);
+    // 4^3 f32 samples past f16's range.
+    w("big_f32.raw", &[1.0e5f32; 64].iter().flat_map(|v| v.to_le_bytes()).collect::<Vec<u8>>());
     w("nan.raw", &f32::NAN.to_le_bytes().repeat(8));
     w("a_file", b"x");
     dir
@@ -125,6 +127,10 @@ fn cases(dir: &Path) -> Vec<(Vec<String>, &'static str)> {
         (volume(p("truncated.nii.gz"), &[]), "truncated.nii.gz"),
         (volume(p("notnifti.nii"), &[]), "notnifti.nii"),
         (volume(p("small.raw"), &["--raw", "10,10,10,u8"]), "bytes"),
+        (volume(p("big_f32.raw"), &["--raw", "4,4,4,f32", "--format", "f16"]), "65504"),
+        (render(&["--brick", "8"]), "--layout bricked"),
+        (render(&["--layout", "bricked", "--brick", "1"]), "--brick 1"),
+        (render(&["--format", "u9"]), "u9"),
         (volume(p("small.raw"), &["--raw", "10,10,u8"]), "raw volume spec"),
         (volume(p("small.raw"), &["--raw", "10,10,1,f64"]), "f64"),
         (volume(p("nan.raw"), &["--raw", "2,2,2,f32"]), "NaN"),

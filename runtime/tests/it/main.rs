@@ -5,6 +5,7 @@ mod atomic_output;
 mod bad_input;
 mod bench_refs;
 mod bench_smoke;
+mod bricks;
 mod cli;
 mod common;
 mod dvr;

@@ -27,7 +27,11 @@ fn catalog_modules() -> Vec<(String, String)> {
                 s.spawn(move || {
                     let d = Derivation::new(&catalog::get(name).unwrap()).unwrap();
                     d.derive_all_forms(&|_, _| {});
-                    let mut jobs = vec![(Layout::Embedded, FetchMode::Exact), (Layout::Packed, FetchMode::Exact)];
+                    let mut jobs = vec![
+                        (Layout::Embedded, FetchMode::Exact),
+                        (Layout::Packed, FetchMode::Exact),
+                        (Layout::Bricked, FetchMode::Exact),
+                    ];
                     if d.factorisation().is_some_and(|f| f.supports_linear_fetch()) {
                         jobs.push((Layout::Embedded, FetchMode::Linear));
                     }

@@ -265,6 +265,7 @@ pub fn run(a: RenderArgs) -> Result<(), Failure> {
             "--format and --layout bricked store the samples of the spline ray casters (iso, DVR, PERM); the schemes and --renderer pt read f32 embedded samples: drop them or use the ray casters".into(),
         ));
     }
+    format.check_values(&vol.data).map_err(|e| Failure(e.to_string()))?;
     if format != boxforge_runtime::volume::SampleFormat::F32 {
         let (slo, shi) = vol.sample_range();
         eprintln!(
