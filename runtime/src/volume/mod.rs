@@ -23,6 +23,7 @@ mod nifti;
 mod nifti_off;
 mod packing;
 mod raw;
+mod source;
 mod synthetic;
 #[cfg(test)]
 mod testutil;
@@ -33,6 +34,7 @@ pub use error::VolumeError;
 pub use format::SampleFormat;
 pub use packing::PackedVolume;
 pub use raw::{parse_raw_spec, RawType};
+pub use source::{check_box_len, BrickSource};
 pub use synthetic::{marschner_lobb, marschner_lobb_grad, ml_position};
 
 use error::checked_count;
