@@ -10,6 +10,7 @@ pub mod dvr;
 mod error;
 mod host;
 pub mod iso;
+pub mod paged;
 pub mod perm;
 pub mod present;
 pub mod pt;

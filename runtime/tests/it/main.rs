@@ -15,6 +15,7 @@ mod gpu_verify;
 mod hit;
 mod host_depth;
 mod mattausch_references;
+mod paged;
 mod perm;
 mod prefilter;
 mod pt;

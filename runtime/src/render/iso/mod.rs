@@ -5,7 +5,7 @@
 pub mod cpu;
 pub mod hit;
 pub mod renderer;
-mod template;
+pub(crate) mod template;
 
 use crate::gpu::{Gpu, GpuError};
 use crate::render::RenderError;

@@ -182,3 +182,13 @@ pub(crate) fn template(name: &str, exact: Option<(&HitPlan, i32, [i32; 3])>, hos
     };
     env.get_template("raycast").unwrap().render(ctx).expect("render")
 }
+
+/// The fixed-step ray caster paged out of core (bindings 8 and 9: the
+/// per-pixel resume state and the brick request bitset), appended to a
+/// module emitted for the bricked layout.
+pub(crate) fn paged_template(name: &str) -> String {
+    let mut env = minijinja::Environment::new();
+    env.add_template("raycast", include_str!("../../../../templates/raycast.wgsl.j2")).expect("template");
+    let ctx = minijinja::context! { name => name, exact => false, host_depth => false, paged => true };
+    env.get_template("raycast").unwrap().render(ctx).expect("render")
+}

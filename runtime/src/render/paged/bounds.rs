@@ -1,0 +1,149 @@
+//! Bricked preprocessing: the min/max block grid of a volume computed a row
+//! of bricks at a time, so that it works on volumes that never fit on the
+//! device. Each row of bricks is read from the source with a halo as wide
+//! as the stencils reach (rounded up to the lattice's period, so local
+//! coordinates keep the lattice), stored in the sample format the renderer
+//! will use, uploaded as an embedded sub-volume, and bounded by the emitted
+//! `<f>_minmax_main` kernel over the row's blocks: the same kernel over the
+//! same samples as in core, so the bounds are the in-core bounds.
+
+use crate::gpu::binding::{storage_entry, texture_3d_entry, uniform_entry};
+use crate::gpu::{Gpu, GpuError};
+use crate::volume::{BrickSource, SampleFormat};
+use boxforge::derive::Derivation;
+use boxforge::emit::{emit, EmitOptions, Layout, SampleMap};
+use wgpu::util::DeviceExt;
+
+/// The smallest p with p Z^3 inside the lattice (p <= |det|): offsets that
+/// are multiples of p keep lattice points on lattice points.
+pub fn lattice_period(lattice: &boxforge::spec::lattice::Lattice) -> usize {
+    let det = lattice.det().unsigned_abs().max(1) as usize;
+    (1..=det)
+        .find(|&p| {
+            (0..3).all(|a| lattice.contains(&std::array::from_fn::<i64, 3, _>(|b| if a == b { p as i64 } else { 0 })))
+        })
+        .unwrap_or(det)
+}
+
+/// Bounds [min, max] (value units, the map applied) of every block of
+/// `block`^3 cubes over the source (x fastest), computed brick row by brick
+/// row. `brick` must be a multiple of `block` and of the lattice period;
+/// `max_texels` caps the sub-volume a row is uploaded as.
+#[allow(clippy::too_many_arguments)]
+pub fn brick_row_bounds(
+    gpu: &Gpu,
+    d: &Derivation,
+    source: &dyn BrickSource,
+    format: SampleFormat,
+    map: SampleMap,
+    brick: usize,
+    block: usize,
+    max_texels: usize,
+    progress: &dyn Fn(usize, usize),
+) -> Result<Vec<[f32; 2]>, GpuError> {
+    let name = &d.filter.name;
+    let dims = source.dims();
+    let runtime = |e: crate::volume::VolumeError| GpuError::Runtime(e.to_string());
+    let period = lattice_period(source.lattice());
+    let reach = boxforge::emit::bricks::brick_halo(d);
+    let halo = reach.div_ceil(period) * period;
+    let module = emit(
+        d,
+        &EmitOptions {
+            layout: Layout::Embedded,
+            samples: map,
+            command: "boxforge render (bricked bounds)".into(),
+            ..Default::default()
+        },
+    )
+    .map_err(|e| GpuError::Runtime(e.to_string()))?;
+    let shader = gpu.compile(&module.file_name, &module.source)?;
+    let dev = &gpu.device;
+    let entries = [texture_3d_entry(0, wgpu::ShaderStages::COMPUTE, false), storage_entry(1, false), uniform_entry(2)];
+    let bgl =
+        dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("row bounds"), entries: &entries });
+    let pipeline = gpu.pipeline("row bounds", &shader, &[&bgl], &format!("{name}_minmax_main"))?;
+
+    let bricks = dims.map(|n| n.div_ceil(brick));
+    let blocks = dims.map(|n| n.div_ceil(block));
+    let per_brick = brick / block;
+    let side = brick + 2 * halo;
+    // Bricks per row: as many along x as the texel cap and the texture limit allow.
+    let max_edge = gpu.limits().max_texture_dimension_3d as usize;
+    let row_len = ((max_texels / (side * side)).saturating_sub(2 * halo) / brick)
+        .min((max_edge - 2 * halo) / brick)
+        .clamp(1, bricks[0]);
+    let mut bounds = vec![[0f32; 2]; blocks[0] * blocks[1] * blocks[2]];
+    let rows = bricks[1] * bricks[2] * bricks[0].div_ceil(row_len);
+    let mut done = 0;
+    let mut values = Vec::new();
+    for kz in 0..bricks[2] {
+        for ky in 0..bricks[1] {
+            for kx0 in (0..bricks[0]).step_by(row_len) {
+                let n = row_len.min(bricks[0] - kx0);
+                let size = [n * brick + 2 * halo, side, side];
+                let lo = [
+                    (kx0 * brick) as i64 - halo as i64,
+                    (ky * brick) as i64 - halo as i64,
+                    (kz * brick) as i64 - halo as i64,
+                ];
+                values.resize(size[0] * size[1] * size[2], 0.0);
+                source.read_box(lo, size, &mut values).map_err(runtime)?;
+                // The samples the renderer will read, in its texture format
+                // (the device's conversion of stored texels is the same).
+                let stored = format.encode(&values, map).map_err(runtime)?;
+                let tex = dev.create_texture_with_data(
+                    &gpu.queue,
+                    &wgpu::TextureDescriptor {
+                        label: Some("brick row"),
+                        size: wgpu::Extent3d {
+                            width: size[0] as u32,
+                            height: size[1] as u32,
+                            depth_or_array_layers: size[2] as u32,
+                        },
+                        mip_level_count: 1,
+                        sample_count: 1,
+                        dimension: wgpu::TextureDimension::D3,
+                        format: format.texture_format(),
+                        usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+                        view_formats: &[],
+                    },
+                    wgpu::util::TextureDataOrder::LayerMajor,
+                    &stored,
+                );
+                let view = tex.create_view(&Default::default());
+                let count = [n * per_brick, per_brick, per_brick];
+                let total = count[0] * count[1] * count[2];
+                let out = gpu.storage_buffer("row bounds", &vec![0u8; total * 8], true);
+                let h = halo as i32;
+                let job: [i32; 8] = [h, h, h, 0, count[0] as i32, count[1] as i32, count[2] as i32, block as i32];
+                let job_buf = gpu.uniform_buffer("row job", bytemuck::cast_slice(&job));
+                let bg = dev.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("row bounds"),
+                    layout: &bgl,
+                    entries: &[
+                        wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&view) },
+                        wgpu::BindGroupEntry { binding: 1, resource: out.as_entire_binding() },
+                        wgpu::BindGroupEntry { binding: 2, resource: job_buf.as_entire_binding() },
+                    ],
+                });
+                gpu.dispatch("row bounds", &pipeline, &[&bg], ((total as u32).div_ceil(64), 1, 1))?;
+                let raw: Vec<f32> = bytemuck::cast_slice(&gpu.read_buffer(&out)?).to_vec();
+                for bz in 0..count[2] {
+                    for by in 0..count[1] {
+                        for bx in 0..count[0] {
+                            let g = [kx0 * per_brick + bx, ky * per_brick + by, kz * per_brick + bz];
+                            if g[0] < blocks[0] && g[1] < blocks[1] && g[2] < blocks[2] {
+                                let i = bx + count[0] * (by + count[1] * bz);
+                                bounds[g[0] + blocks[0] * (g[1] + blocks[1] * g[2])] = [raw[2 * i], raw[2 * i + 1]];
+                            }
+                        }
+                    }
+                }
+                done += 1;
+                progress(done, rows);
+            }
+        }
+    }
+    Ok(bounds)
+}
