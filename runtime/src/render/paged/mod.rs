@@ -169,14 +169,22 @@ impl PagedIsoRenderer {
         let max_edge = options.max_pool_edge.unwrap_or(gpu.limits().max_texture_dimension_3d as usize);
         let by_budget = ((options.budget - fixed_bytes) / slot_bytes) as usize;
         let per_axis = (max_edge / slot).min(boxforge::emit::bricks::max_slots_per_axis(3));
-        let capacity = by_budget.min(nbricks).min(per_axis.pow(3));
+        // Every slot of the pool texture counts against the budget: a grid
+        // for the bricks when they all fit, else the largest grid that does.
+        let slots = slot_grid(nbricks, slot, max_edge)
+            .filter(|g| g.iter().product::<usize>() <= by_budget)
+            .unwrap_or_else(|| {
+                let sx = per_axis.min(by_budget);
+                let sy = per_axis.min(by_budget / sx.max(1));
+                let sz = per_axis.min(by_budget / (sx * sy).max(1));
+                [sx, sy, sz]
+            });
+        let capacity = slots.iter().product::<usize>();
         if capacity < 8.min(nbricks) {
             return Err(fail(format!(
                 "a pool texture of at most {max_edge} texels per edge holds {capacity} slots of {slot}^3; use a smaller --brick"
             )));
         }
-        let slots = slot_grid(capacity, slot, max_edge).expect("capacity fits the edge (checked above)");
-
         let (lo, hi) = source.sample_range().map_err(|e| fail(e.to_string()))?;
         let map = format.map_for(lo, hi);
         let max_texels = ((options.budget / 8) as usize).max(slot * slot * slot * 4);

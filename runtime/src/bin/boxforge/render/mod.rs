@@ -3,6 +3,7 @@
 //! scheme: see dvr.rs), to PNG on the GPU.
 
 mod dvr;
+mod paged;
 
 use crate::common::{parse_view, Failure, FormatArg, LayoutArg};
 use crate::request;
@@ -99,6 +100,10 @@ pub struct RenderArgs {
     /// (normalized over the data range; the error is stated).
     #[arg(long, value_enum, default_value = "f32")]
     format: FormatArg,
+    /// Render out of core within this much device memory (e.g. 256MiB,
+    /// 2GiB): bricks are paged into a pool as rays reach them, in passes.
+    #[arg(long)]
+    gpu_budget: Option<String>,
     #[arg(long)]
     adapter: Option<String>,
     #[arg(long, default_value = "out.png")]
@@ -197,7 +202,17 @@ pub fn run(a: RenderArgs) -> Result<(), Failure> {
         _ => None,
     };
     let layout = Layout::from(a.layout);
-    request::check_brick(a.brick, layout)?;
+    let budget = a.gpu_budget.as_deref().map(request::parse_budget).transpose()?;
+    match budget {
+        Some(_) => request::check_paged(
+            dvr.is_some(),
+            matches!(a.hit, HitArg::Exact),
+            layout,
+            perm.is_some() || pt || Scheme::parse(&a.filter).is_some(),
+        )
+        .and_then(|()| request::check_brick(a.brick, Layout::Bricked))?,
+        None => request::check_brick(a.brick, layout)?,
+    }
     // Mattausch et al.'s hand-written plane-stack schemes: ray-cast DVR on BCC only.
     let scheme = Scheme::parse(&a.filter);
     if let Some(s) = scheme {
@@ -277,6 +292,27 @@ pub fn run(a: RenderArgs) -> Result<(), Failure> {
     }
     let gpu = Gpu::new(a.adapter.as_deref()).map_err(|e| Failure(e.to_string()))?;
     request::check_image_limits(size, &gpu.limits())?;
+    if let Some(budget) = budget {
+        let options = boxforge_runtime::render::paged::PagedOptions {
+            iso: a.iso,
+            step: a.step,
+            brick: a.brick.unwrap_or(boxforge_runtime::volume::BrickShape::DEFAULT_EDGE),
+            format,
+            budget,
+            max_pixels: size as u64 * size as u64,
+            ..Default::default()
+        };
+        let camera = RenderOptions {
+            width: size,
+            height: size,
+            azimuth: az,
+            elevation: el,
+            perspective: a.perspective,
+            frames: 0,
+            ..RenderOptions::default()
+        };
+        return paged::render(&gpu, &d, &vol, options, &camera, &a.out);
+    }
     let shown = scheme.map_or(f.name.as_str(), |s| s.name());
     eprintln!("rendering {} ({} samples) with {shown} on {} ...", a.volume, vol.samples(), gpu.describe());
     let frame = match &tf {
