@@ -47,11 +47,14 @@ const NIFTI1_HEADER: usize = 348;
 /// ([`resident_bytes`](BrickSource::resident_bytes)) — whatever the file
 /// size. [`sample_range`](BrickSource::sample_range) streams the file in
 /// 256 Ki-sample chunks and drops each chunk's pages the same way. (On
-/// non-Unix targets the pages are left to the OS.)
+/// non-Unix targets the pages are left to the OS. Threads reading nearby
+/// boxes at once may drop each other's pages: they fault back in from the
+/// page cache, a cost in time only.)
 ///
 /// **A file modified while mapped.** Reading a mapped page past the end of a
-/// file that shrank kills the process with SIGBUS; every read first checks
-/// the open file's current length and answers [`VolumeError::Shrunk`]
+/// file that shrank kills the process with SIGBUS; every z-slice of a box
+/// (and every chunk of the range pass) is read only after checking the open
+/// file's current length, answering [`VolumeError::Shrunk`]
 /// instead. (The check and the copy are not atomic: a file truncated in the
 /// microseconds between them can still fault; do not modify a volume while
 /// it is rendered.)
