@@ -18,6 +18,7 @@
 pub mod bench;
 pub mod gpu;
 pub mod limits;
+pub mod memory;
 #[cfg(feature = "pictures")]
 pub mod pictures;
 pub mod prefilter;

@@ -64,6 +64,26 @@ pub enum VolumeError {
     /// A sample format that cannot hold the data.
     #[error("sample format {format}: {message}")]
     Format { format: &'static str, message: String },
+    /// A memory-mapped volume file became shorter while it was read (reading
+    /// past its new end would crash the process with SIGBUS).
+    #[error(
+        "the file {path} shrank from {old} to {new} bytes while boxforge read it; do not modify a volume while it is rendered (let the writer finish, then open it again)"
+    )]
+    Shrunk { path: PathBuf, old: u64, new: u64 },
+    /// A NaN or infinite sample met while a volume is read box by box.
+    #[error(
+        "{path}: the sample at voxel ({}, {}, {}) is NaN or infinite; boxforge needs finite samples: replace them (e.g. with 0 or the background value) before loading",
+        voxel[0], voxel[1], voxel[2]
+    )]
+    NonFiniteAt { path: PathBuf, voxel: [usize; 3] },
+    /// A .nii.gz file whose gzip stream cannot be decompressed.
+    #[error("cannot decompress {path}: {source} (check that the file is a complete .nii.gz, e.g. download it again)")]
+    Gzip { path: PathBuf, source: std::io::Error },
+    /// The decompressed-volume cache cannot be written.
+    #[error(
+        "cannot write the decompressed volume cache {path}: {source} (free disk space there or choose another cache directory; it defaults to $XDG_CACHE_HOME/boxforge or ~/.cache/boxforge)"
+    )]
+    Cache { path: PathBuf, source: std::io::Error },
 }
 
 /// Number of samples of a box, or an error for zero or overflowing dims.

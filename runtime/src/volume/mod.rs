@@ -24,6 +24,7 @@ mod nifti_off;
 mod packing;
 mod raw;
 mod source;
+mod stream;
 mod synthetic;
 #[cfg(test)]
 mod testutil;
@@ -35,6 +36,7 @@ pub use format::SampleFormat;
 pub use packing::PackedVolume;
 pub use raw::{parse_raw_spec, RawType};
 pub use source::{check_box_len, BrickSource};
+pub use stream::{default_cache_dir, MappedVolume};
 pub use synthetic::{marschner_lobb, marschner_lobb_grad, ml_position};
 
 use error::checked_count;
