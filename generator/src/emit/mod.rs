@@ -142,9 +142,9 @@ pub struct EmitOptions {
 
 /// The affine map from stored samples to values: value = offset + scale *
 /// stored. A box spline is linear in its samples and its weights sum to 1,
-/// so the module applies the map once per evaluation (value: offset + scale
-/// * the spline of the stored samples; gradient: scale * its gradient), once
-/// per prefiltered point (the prefilter's taps sum to 1) and once per bound.
+/// so the module applies the map once per evaluation (value: offset +
+/// scale times the spline of the stored samples; gradient: scale times its
+/// gradient), once per prefiltered point (the prefilter's taps sum to 1) and once per bound.
 /// Compact sample formats (u8, u16 normalized, f16) store (v - offset) / scale.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct SampleMap {

@@ -251,6 +251,35 @@ pub fn run(a: RenderArgs) -> Result<(), Failure> {
     }
     let conversion = if a.resample { Conversion::Resample } else { Conversion::Subset };
     request::check_ml_volume(&a.volume, &lat)?;
+    if let Some(budget) = budget {
+        if a.resample {
+            return Err(Failure(
+                "--gpu-budget reads the file lazily as the lattice subset; --resample needs the whole volume in memory: drop one of them".into(),
+            ));
+        }
+        let options = boxforge_runtime::render::paged::PagedOptions {
+            iso: a.iso,
+            step: a.step,
+            brick: a.brick.unwrap_or(boxforge_runtime::volume::BrickShape::DEFAULT_EDGE),
+            format: a.format.into(),
+            budget,
+            max_pixels: size as u64 * size as u64,
+            ..Default::default()
+        };
+        let camera = RenderOptions {
+            width: size,
+            height: size,
+            azimuth: az,
+            elevation: el,
+            perspective: a.perspective,
+            frames: 0,
+            ..RenderOptions::default()
+        };
+        let source = paged::open_source(&a.volume, a.raw.as_deref(), &lat)?;
+        let gpu = Gpu::new(a.adapter.as_deref()).map_err(|e| Failure(e.to_string()))?;
+        request::check_image_limits(size, &gpu.limits())?;
+        return paged::render(&gpu, &d, source.as_ref(), options, &camera, &a.out);
+    }
     let vol = scene::load(&a.volume, a.raw.as_deref(), &lat, conversion).map_err(|e| Failure(e.to_string()))?;
     let (lo, hi) = vol.data.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
     if dvr.as_deref() == Some("") {
@@ -292,27 +321,6 @@ pub fn run(a: RenderArgs) -> Result<(), Failure> {
     }
     let gpu = Gpu::new(a.adapter.as_deref()).map_err(|e| Failure(e.to_string()))?;
     request::check_image_limits(size, &gpu.limits())?;
-    if let Some(budget) = budget {
-        let options = boxforge_runtime::render::paged::PagedOptions {
-            iso: a.iso,
-            step: a.step,
-            brick: a.brick.unwrap_or(boxforge_runtime::volume::BrickShape::DEFAULT_EDGE),
-            format,
-            budget,
-            max_pixels: size as u64 * size as u64,
-            ..Default::default()
-        };
-        let camera = RenderOptions {
-            width: size,
-            height: size,
-            azimuth: az,
-            elevation: el,
-            perspective: a.perspective,
-            frames: 0,
-            ..RenderOptions::default()
-        };
-        return paged::render(&gpu, &d, &vol, options, &camera, &a.out);
-    }
     let shown = scheme.map_or(f.name.as_str(), |s| s.name());
     eprintln!("rendering {} ({} samples) with {shown} on {} ...", a.volume, vol.samples(), gpu.describe());
     let frame = match &tf {

@@ -6,7 +6,34 @@ use boxforge::derive::Derivation;
 use boxforge_runtime::gpu::Gpu;
 use boxforge_runtime::render::iso::{self as render, RenderOptions};
 use boxforge_runtime::render::paged::{human, PagedIsoRenderer, PagedOptions};
-use boxforge_runtime::volume::BrickSource;
+use boxforge_runtime::volume::{BrickSource, MappedVolume};
+
+/// The samples `--volume` names, for out-of-core rendering: `ml:N` built in
+/// memory, a file mapped and read brick by brick (a `.nii.gz` decompressed
+/// once into the cache folder, with progress).
+pub fn open_source(
+    volume: &str,
+    raw: Option<&str>,
+    lattice: &boxforge::spec::lattice::Lattice,
+) -> Result<Box<dyn BrickSource>, Failure> {
+    if volume.starts_with("ml:") {
+        let v = boxforge_runtime::scene::load(volume, None, lattice, boxforge_runtime::scene::Conversion::Subset)
+            .map_err(|e| Failure(e.to_string()))?;
+        return Ok(Box::new(v));
+    }
+    let cache = boxforge_runtime::volume::default_cache_dir();
+    let last = std::cell::Cell::new(u64::MAX);
+    let progress = |done: u64, total: u64| {
+        let pct = done * 100 / total.max(1);
+        if pct / 10 != last.get() / 10 {
+            last.set(pct);
+            eprintln!("decompressing {volume} into {}: {pct}%", cache.display());
+        }
+    };
+    let m = MappedVolume::open(std::path::Path::new(volume), raw, lattice, &cache, &progress)
+        .map_err(|e| Failure(e.to_string()))?;
+    Ok(Box::new(m))
+}
 
 /// Preprocesses `source` brick row by brick row (a progress line on
 /// stderr), renders one frame in passes and writes it to `out`.
@@ -28,10 +55,11 @@ pub fn render(
     };
     let mut r = PagedIsoRenderer::new(gpu, d, source, options, &progress).map_err(|e| Failure(e.to_string()))?;
     let (frame, stats) = r.render(source, camera).map_err(|e| Failure(e.to_string()))?;
+    let host = boxforge_runtime::memory::peak_resident_bytes().map_or("unknown".into(), human);
     render::write_png(out, frame.width, frame.height, &frame.rgba)
         .map_err(|e| Failure(format!("cannot write {}: {e}", out.display())))?;
     eprintln!(
-        "{}: {}x{} in {:.1} ms out of core: {} passes, {} bricks uploaded ({} evicted) into {} slots; {} of {} bricks hold the surface's blocks; device {} of the {} budget",
+        "{}: {}x{} in {:.1} ms out of core: {} passes, {} bricks uploaded ({} evicted) into {} slots; {} of {} bricks hold the surface's blocks; device {} of the {} budget; peak host memory (VmHWM) {host}",
         out.display(),
         frame.width,
         frame.height,
