@@ -17,6 +17,7 @@ pub mod glsl_rivals;
 pub mod hit;
 pub mod literature;
 pub mod perm;
+pub mod volumes;
 
 pub mod stats;
 

@@ -30,6 +30,17 @@ pub struct BenchArgs {
     /// section of the file.
     #[arg(long, conflicts_with_all = ["derive", "literature"])]
     perm: bool,
+    /// Measure volumes larger than one texture instead: bricked vs embedded
+    /// and u8 vs f32 in core, and out-of-core frames of a generated
+    /// Marschner-Lobb u8 volume on disk (1024^3, about 1 GiB, written once
+    /// into the cache folder) at 1 GiB and 256 MiB budgets, and of a volume
+    /// longer than the 3D texture limit: with --markdown, replaces only its
+    /// section of the file.
+    #[arg(long, conflicts_with_all = ["derive", "literature", "perm"])]
+    volumes: bool,
+    /// Edge of the generated out-of-core volume (default 1024; 64 with --smoke).
+    #[arg(long, requires = "volumes")]
+    large_edge: Option<usize>,
     /// Time the derivation of a fixed, seeded set of random specs instead
     /// (no GPU): with --markdown, replaces only its section of the file.
     #[arg(long)]
@@ -79,6 +90,8 @@ pub fn run(a: BenchArgs) -> Result<(), Failure> {
         literature(&a)
     } else if a.perm {
         perm(&a)
+    } else if a.volumes {
+        volumes(&a)
     } else if a.references_only {
         references_only(&a)
     } else {
@@ -196,6 +209,115 @@ fn perm(a: &BenchArgs) -> Result<(), Failure> {
     section.finish(&report, &text, bench::perm::splice, a.json)
 }
 
+/// `--volumes`: bricks, compact formats and out-of-core frames.
+fn volumes(a: &BenchArgs) -> Result<(), Failure> {
+    let gpu = open_gpu(a.adapter.as_deref())?;
+    let (edge, size, rounds) = if a.smoke { (32, 64, 1) } else { (128, 256, a.runs.unwrap_or(5)) };
+    let large = a.large_edge.unwrap_or(if a.smoke { 64 } else { 1024 });
+    let mut flags = format!("--volumes{}", smoke_runs(a, true));
+    if a.large_edge.is_some() {
+        flags.push_str(&format!(" --large-edge {large}"));
+    }
+    let section = Section::new("volumes", &flags, a.markdown.as_deref())?;
+    let steps = progress::Steps::new();
+    let mut in_core = Vec::new();
+    for f in ["bcc7", "cc_tricubic"] {
+        in_core.extend(
+            bench::volumes::in_core(&gpu, f, edge, size, rounds, &|m: &str| steps.step(m))
+                .map_err(|e| Failure(e.to_string()))?,
+        );
+    }
+    steps.finish();
+    let cache = boxforge_runtime::volume::default_cache_dir();
+    let (budgets, long): (Vec<u64>, [usize; 3]) =
+        if a.smoke { (vec![16 << 20, 4 << 20], [160, 32, 32]) } else { (vec![1 << 30, 256 << 20], [2304, 256, 256]) };
+    let write = |dims: [usize; 3]| -> Result<std::path::PathBuf, Failure> {
+        let path = cache.join(format!("ml_{}x{}x{}_u8.raw", dims[0], dims[1], dims[2]));
+        let last = std::cell::Cell::new(usize::MAX);
+        let wrote = bench::volumes::write_ml_u8(&path, dims, &|done, total| {
+            let pct = done * 100 / total;
+            if pct / 10 != last.get() / 10 {
+                last.set(pct);
+                eprintln!("writing {}: {pct}%", path.display());
+            }
+        })
+        .map_err(|e| Failure(format!("cannot write {}: {e}", path.display())))?;
+        if !wrote {
+            eprintln!("using {} (already written)", path.display());
+        }
+        Ok(path)
+    };
+    let cube = write([large; 3])?;
+    let long_path = write(long)?;
+    let exe = std::env::current_exe().map_err(|e| Failure(format!("cannot find this program: {e}")))?;
+    let out_png = std::env::temp_dir().join(format!("boxforge-volumes-{}.png", std::process::id()));
+    let child = |filter: &str,
+                 volume: &str,
+                 raw: Option<String>,
+                 budget: u64,
+                 iso: &str|
+     -> Result<serde_json::Value, Failure> {
+        let mut cmd = std::process::Command::new(&exe);
+        cmd.args(["render", "--filter", filter, "--volume", volume, "--format", "u8", "--iso", iso, "--size"])
+            .arg(size.to_string())
+            .args(["--gpu-budget", &budget.to_string(), "--stats-json", "--out"])
+            .arg(&out_png);
+        if let Some(r) = raw {
+            cmd.args(["--raw", &r]);
+        }
+        if let Some(ad) = &a.adapter {
+            cmd.args(["--adapter", ad]);
+        }
+        eprintln!("{filter} {volume} at {}", boxforge_runtime::render::paged::human(budget));
+        let out = cmd.stderr(std::process::Stdio::inherit()).output().map_err(|e| Failure(e.to_string()))?;
+        if !out.status.success() {
+            return Err(Failure(format!(
+                "out-of-core render of {volume} with {filter} failed (exit {:?})",
+                out.status.code()
+            )));
+        }
+        serde_json::from_slice(&out.stdout).map_err(|e| Failure(format!("unreadable render statistics: {e}")))
+    };
+    let mut out_of_core = Vec::new();
+    for f in ["bcc7", "cc_tricubic"] {
+        let base = child(f, "ml:8", None, budgets[budgets.len() - 1], "0.5")?["host_peak_bytes"].as_u64();
+        let runs: Vec<(std::path::PathBuf, [usize; 3], u64)> = budgets
+            .iter()
+            .map(|&b| (cube.clone(), [large; 3], b))
+            .chain((f == "bcc7").then(|| (long_path.clone(), long, budgets[budgets.len() - 1] / 4)))
+            .collect();
+        for (path, dims, budget) in runs {
+            let raw = format!("{},{},{},u8", dims[0], dims[1], dims[2]);
+            let stats = child(f, &path.display().to_string(), Some(raw), budget, "127.5")?;
+            out_of_core.push(bench::volumes::OutOfCoreRow {
+                filter: f.into(),
+                volume: format!(
+                    "ML {}x{}x{} u8 on disk ({} MiB)",
+                    dims[0],
+                    dims[1],
+                    dims[2],
+                    dims.iter().product::<usize>() >> 20
+                ),
+                format: "u8".into(),
+                budget,
+                stats,
+                baseline_host_bytes: base,
+            });
+        }
+    }
+    let _ = std::fs::remove_file(&out_png);
+    let report = bench::volumes::VolumesReport {
+        adapter: gpu.describe(),
+        in_core_volume: format!("Marschner-Lobb, {edge}^3 box"),
+        size,
+        rounds,
+        in_core,
+        out_of_core,
+    };
+    let text = bench::volumes::markdown(&report, section.command());
+    section.finish(&report, &text, bench::volumes::splice, a.json)
+}
+
 /// The main report: throughput, rendering, gradients, quality; with
 /// --markdown the whole file, keeping the other modes' sections.
 fn main_report(a: BenchArgs) -> Result<(), Failure> {
@@ -249,6 +371,7 @@ fn main_report(a: BenchArgs) -> Result<(), Failure> {
                 bench::derive::existing_section(&old),
                 bench::literature::existing_section(&old),
                 bench::perm::existing_section(&old),
+                bench::volumes::existing_section(&old),
             ];
             for section in kept.into_iter().flatten() {
                 text = format!("{}\n\n{section}\n", text.trim_end());

@@ -430,7 +430,9 @@ pub fn check_paged(tf: bool, exact: bool, layout: Layout, other_renderer: bool) 
         return Err("--gpu-budget renders isosurfaces out of core (the ray caster by fixed steps); out-of-core DVR, PERM, schemes and --renderer pt are not offered: drop --gpu-budget or --tf/--cache/--renderer".into());
     }
     if exact {
-        return Err("--gpu-budget walks rays by fixed steps; out of core the exact hit is not offered: use --hit step".into());
+        return Err(
+            "--gpu-budget walks rays by fixed steps; out of core the exact hit is not offered: use --hit step".into()
+        );
     }
     if layout == Layout::Packed {
         return Err("--gpu-budget stores the samples in bricks (the bricked layout); drop --layout packed".into());

@@ -12,7 +12,6 @@ use crate::gpu::{Gpu, GpuError};
 use crate::volume::{BrickSource, SampleFormat};
 use boxforge::derive::Derivation;
 use boxforge::emit::{emit, EmitOptions, Layout, SampleMap};
-use wgpu::util::DeviceExt;
 
 /// The smallest p with p Z^3 inside the lattice (p <= |det|): offsets that
 /// are multiples of p keep lattice points on lattice points.
@@ -73,15 +72,53 @@ pub fn brick_row_bounds(
     let row_len = ((max_texels / (side * side)).saturating_sub(2 * halo) / brick)
         .min((max_edge - 2 * halo) / brick)
         .clamp(1, bricks[0]);
+    // Whole rows along x: stack as many along y as the cap allows (a slab),
+    // so a large volume takes few dispatches.
+    let rows_y = if row_len == bricks[0] {
+        ((max_texels / ((row_len * brick + 2 * halo) * side)).saturating_sub(2 * halo) / brick)
+            .min((max_edge - 2 * halo) / brick)
+            .clamp(1, bricks[1])
+    } else {
+        1
+    };
     let mut bounds = vec![[0f32; 2]; blocks[0] * blocks[1] * blocks[2]];
-    let rows = bricks[1] * bricks[2] * bricks[0].div_ceil(row_len);
+    // One texture, output and job buffer for every row (a shorter last row
+    // uses a corner of them: its stencils never reach past what it writes).
+    let tex = dev.create_texture(&wgpu::TextureDescriptor {
+        label: Some("brick row"),
+        size: wgpu::Extent3d {
+            width: (row_len * brick + 2 * halo) as u32,
+            height: (rows_y * brick + 2 * halo) as u32,
+            depth_or_array_layers: side as u32,
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D3,
+        format: format.texture_format(),
+        usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+        view_formats: &[],
+    });
+    let view = tex.create_view(&Default::default());
+    let out = gpu.storage_buffer("row bounds", &vec![0u8; row_len * rows_y * per_brick.pow(3) * 8], true);
+    let job_buf = gpu.uniform_buffer("row job", &[0u8; 32]);
+    let bg = dev.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("row bounds"),
+        layout: &bgl,
+        entries: &[
+            wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&view) },
+            wgpu::BindGroupEntry { binding: 1, resource: out.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 2, resource: job_buf.as_entire_binding() },
+        ],
+    });
+    let rows = bricks[1].div_ceil(rows_y) * bricks[2] * bricks[0].div_ceil(row_len);
     let mut done = 0;
     let mut values = Vec::new();
     for kz in 0..bricks[2] {
-        for ky in 0..bricks[1] {
+        for ky in (0..bricks[1]).step_by(rows_y) {
             for kx0 in (0..bricks[0]).step_by(row_len) {
                 let n = row_len.min(bricks[0] - kx0);
-                let size = [n * brick + 2 * halo, side, side];
+                let ny = rows_y.min(bricks[1] - ky);
+                let size = [n * brick + 2 * halo, ny * brick + 2 * halo, side];
                 let lo = [
                     (kx0 * brick) as i64 - halo as i64,
                     (ky * brick) as i64 - halo as i64,
@@ -92,43 +129,32 @@ pub fn brick_row_bounds(
                 // The samples the renderer will read, in its texture format
                 // (the device's conversion of stored texels is the same).
                 let stored = format.encode(&values, map).map_err(runtime)?;
-                let tex = dev.create_texture_with_data(
-                    &gpu.queue,
-                    &wgpu::TextureDescriptor {
-                        label: Some("brick row"),
-                        size: wgpu::Extent3d {
-                            width: size[0] as u32,
-                            height: size[1] as u32,
-                            depth_or_array_layers: size[2] as u32,
-                        },
-                        mip_level_count: 1,
-                        sample_count: 1,
-                        dimension: wgpu::TextureDimension::D3,
-                        format: format.texture_format(),
-                        usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-                        view_formats: &[],
+                gpu.queue.write_texture(
+                    wgpu::TexelCopyTextureInfo {
+                        texture: &tex,
+                        mip_level: 0,
+                        origin: wgpu::Origin3d::ZERO,
+                        aspect: wgpu::TextureAspect::All,
                     },
-                    wgpu::util::TextureDataOrder::LayerMajor,
                     &stored,
+                    wgpu::TexelCopyBufferLayout {
+                        offset: 0,
+                        bytes_per_row: Some((size[0] * format.bytes()) as u32),
+                        rows_per_image: Some(size[1] as u32),
+                    },
+                    wgpu::Extent3d {
+                        width: size[0] as u32,
+                        height: size[1] as u32,
+                        depth_or_array_layers: size[2] as u32,
+                    },
                 );
-                let view = tex.create_view(&Default::default());
-                let count = [n * per_brick, per_brick, per_brick];
+                let count = [n * per_brick, ny * per_brick, per_brick];
                 let total = count[0] * count[1] * count[2];
-                let out = gpu.storage_buffer("row bounds", &vec![0u8; total * 8], true);
                 let h = halo as i32;
                 let job: [i32; 8] = [h, h, h, 0, count[0] as i32, count[1] as i32, count[2] as i32, block as i32];
-                let job_buf = gpu.uniform_buffer("row job", bytemuck::cast_slice(&job));
-                let bg = dev.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some("row bounds"),
-                    layout: &bgl,
-                    entries: &[
-                        wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&view) },
-                        wgpu::BindGroupEntry { binding: 1, resource: out.as_entire_binding() },
-                        wgpu::BindGroupEntry { binding: 2, resource: job_buf.as_entire_binding() },
-                    ],
-                });
+                gpu.queue.write_buffer(&job_buf, 0, bytemuck::cast_slice(&job));
                 gpu.dispatch("row bounds", &pipeline, &[&bg], ((total as u32).div_ceil(64), 1, 1))?;
-                let raw: Vec<f32> = bytemuck::cast_slice(&gpu.read_buffer(&out)?).to_vec();
+                let raw: Vec<f32> = bytemuck::cast_slice(&gpu.read_buffer(&out)?[..total * 8]).to_vec();
                 for bz in 0..count[2] {
                     for by in 0..count[1] {
                         for bx in 0..count[0] {

@@ -67,7 +67,7 @@ impl Default for PagedOptions {
 }
 
 /// What rendering one frame out of core took.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
 pub struct PagedStats {
     /// Dispatches of the ray caster (1: everything was resident).
     pub passes: usize,

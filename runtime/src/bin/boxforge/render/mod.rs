@@ -104,6 +104,11 @@ pub struct RenderArgs {
     /// 2GiB): bricks are paged into a pool as rays reach them, in passes.
     #[arg(long)]
     gpu_budget: Option<String>,
+    /// With --gpu-budget: render a second (warm) frame and print both
+    /// frames' statistics and the peak host memory as JSON on stdout (what
+    /// `bench --volumes` reads).
+    #[arg(long, requires = "gpu_budget", hide = true)]
+    stats_json: bool,
     #[arg(long)]
     adapter: Option<String>,
     #[arg(long, default_value = "out.png")]
@@ -278,7 +283,7 @@ pub fn run(a: RenderArgs) -> Result<(), Failure> {
         let source = paged::open_source(&a.volume, a.raw.as_deref(), &lat)?;
         let gpu = Gpu::new(a.adapter.as_deref()).map_err(|e| Failure(e.to_string()))?;
         request::check_image_limits(size, &gpu.limits())?;
-        return paged::render(&gpu, &d, source.as_ref(), options, &camera, &a.out);
+        return paged::render(&gpu, &d, source.as_ref(), options, &camera, &a.out, a.stats_json);
     }
     let vol = scene::load(&a.volume, a.raw.as_deref(), &lat, conversion).map_err(|e| Failure(e.to_string()))?;
     let (lo, hi) = vol.data.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));

@@ -44,7 +44,9 @@ pub fn render(
     options: PagedOptions,
     camera: &RenderOptions,
     out: &std::path::Path,
+    stats_json: bool,
 ) -> Result<(), Failure> {
+    let started = std::time::Instant::now();
     let last = std::cell::Cell::new(0usize);
     let progress = |done: usize, total: usize| {
         let pct = done * 100 / total.max(1);
@@ -54,6 +56,8 @@ pub fn render(
         }
     };
     let mut r = PagedIsoRenderer::new(gpu, d, source, options, &progress).map_err(|e| Failure(e.to_string()))?;
+    let preprocess_ms = started.elapsed().as_secs_f64() * 1e3;
+
     let (frame, stats) = r.render(source, camera).map_err(|e| Failure(e.to_string()))?;
     let host = boxforge_runtime::memory::peak_resident_bytes().map_or("unknown".into(), human);
     render::write_png(out, frame.width, frame.height, &frame.rgba)
@@ -73,5 +77,16 @@ pub fn render(
         human(stats.device_bytes),
         human(options.budget),
     );
+    if stats_json {
+        let (_, warm) = r.render(source, camera).map_err(|e| Failure(e.to_string()))?;
+        let json = serde_json::json!({
+            "preprocess_ms": preprocess_ms,
+            "first": stats,
+            "warm": warm,
+            "host_peak_bytes": boxforge_runtime::memory::peak_resident_bytes(),
+            "source_resident_bytes": source.resident_bytes(),
+        });
+        outln!("{json}");
+    }
     Ok(())
 }

@@ -1,0 +1,230 @@
+//! Volumes larger than one texture (`boxforge bench --volumes`): in core,
+//! the bricked layout against the embedded one and compact sample formats
+//! against f32 (ms/frame of the same isosurface, interleaved rounds, one
+//! run); out of core, frames of a generated volume on disk at device
+//! budgets (each configuration in its own process, so its peak host memory
+//! is its own), against a tiny volume's run for the fixed overhead.
+
+use crate::gpu::Gpu;
+use crate::render::iso::RenderOptions;
+use crate::render::RenderError;
+use crate::render::{IsoOptions, IsoRenderer};
+use crate::volume::{BrickShape, DeviceVolume, LatticeVolume, SampleFormat, VolumeOptions};
+use boxforge::derive::Derivation;
+use boxforge::emit::Layout;
+use serde::Serialize;
+use std::fmt::Write as _;
+use std::io::Write as _;
+
+/// Marks the section in BENCHMARKS.md.
+pub const SECTION_START: &str = "<!-- volumes-bench:start -->";
+/// Marks the end of the section.
+pub const SECTION_END: &str = "<!-- volumes-bench:end -->";
+
+/// One in-core configuration's median frame time.
+#[derive(Clone, Debug, Serialize)]
+pub struct InCoreRow {
+    pub filter: String,
+    pub layout: String,
+    pub format: String,
+    pub ms: f64,
+    /// Device bytes of the samples (bricked: pool with halos and page table).
+    pub bytes: usize,
+}
+
+/// One out-of-core configuration (a child process's `render --stats-json`).
+#[derive(Clone, Debug, Serialize)]
+pub struct OutOfCoreRow {
+    pub filter: String,
+    pub volume: String,
+    pub format: String,
+    pub budget: u64,
+    /// The child's JSON: first and warm frames' statistics, preprocessing
+    /// time, peak host memory.
+    pub stats: serde_json::Value,
+    /// Peak host memory of the same command on a tiny volume (the fixed
+    /// overhead: driver, compiler, buffers).
+    pub baseline_host_bytes: Option<u64>,
+}
+
+/// What `bench --volumes` measured.
+#[derive(Clone, Debug, Serialize)]
+pub struct VolumesReport {
+    pub adapter: String,
+    pub in_core_volume: String,
+    pub size: u32,
+    pub rounds: usize,
+    pub in_core: Vec<InCoreRow>,
+    pub out_of_core: Vec<OutOfCoreRow>,
+}
+
+/// ms/frame of `filter`'s isosurface on Marschner-Lobb (`edge`^3 box) in
+/// four stores: embedded and bricked, f32 and u8, rendered in interleaved
+/// rounds after one warm-up frame each (medians).
+pub fn in_core(
+    gpu: &Gpu,
+    filter: &str,
+    edge: usize,
+    size: u32,
+    rounds: usize,
+    progress: &dyn Fn(&str),
+) -> Result<Vec<InCoreRow>, RenderError> {
+    let d = Derivation::new(
+        &boxforge::spec::catalog::get(filter).map_err(|e| crate::gpu::GpuError::Runtime(e.to_string()))?,
+    )
+    .map_err(|e| crate::gpu::GpuError::Runtime(e.to_string()))?;
+    let vol = LatticeVolume::marschner_lobb(&d.filter.lattice, [edge; 3])
+        .map_err(|e| crate::gpu::GpuError::Runtime(e.to_string()))?;
+    let bricks = BrickShape::for_filter(&d);
+    let configs = [
+        (Layout::Embedded, SampleFormat::F32),
+        (Layout::Bricked, SampleFormat::F32),
+        (Layout::Embedded, SampleFormat::U8),
+        (Layout::Bricked, SampleFormat::U8),
+    ];
+    let o = RenderOptions { width: size, height: size, frames: 1, ..RenderOptions::default() };
+    let mut renderers = Vec::new();
+    for (layout, format) in configs {
+        progress(&format!("{filter}: {} {}", layout.name(), format.name()));
+        let dv = DeviceVolume::with_options(gpu, &vol, layout, &VolumeOptions { format, bricks, max_pool_edge: None })?;
+        let options = IsoOptions { iso: o.iso, step: o.step, block: o.block, skip: true, ..IsoOptions::default() };
+        let mut r = IsoRenderer::new(gpu, &d, &dv, options)?;
+        r.timed_frames(&o)?;
+        renderers.push((layout, format, dv.bytes, r, Vec::new()));
+    }
+    for round in 0..rounds {
+        progress(&format!("{filter}: round {} of {rounds}", round + 1));
+        for (_, _, _, r, times) in renderers.iter_mut() {
+            times.push(r.timed_frames(&o)?.0.ms_per_frame);
+        }
+    }
+    Ok(renderers
+        .into_iter()
+        .map(|(layout, format, bytes, _, mut times)| {
+            times.sort_by(f64::total_cmp);
+            InCoreRow {
+                filter: filter.into(),
+                layout: layout.name().into(),
+                format: format.name().into(),
+                ms: times[times.len() / 2],
+                bytes,
+            }
+        })
+        .collect())
+}
+
+/// Writes Marschner-Lobb sampled on a `dims` grid as u8 (255 v, rounded)
+/// to `path`, one z-slice at a time (host memory: one slice), unless a file
+/// of that size is already there. Returns whether it wrote.
+pub fn write_ml_u8(path: &std::path::Path, dims: [usize; 3], progress: &dyn Fn(usize, usize)) -> std::io::Result<bool> {
+    let bytes = (dims[0] * dims[1] * dims[2]) as u64;
+    if std::fs::metadata(path).map(|m| m.len() == bytes).unwrap_or(false) {
+        return Ok(false);
+    }
+    if let Some(dir) = path.parent() {
+        std::fs::create_dir_all(dir)?;
+    }
+    let tmp = path.with_extension("partial");
+    let mut f = std::io::BufWriter::new(std::fs::File::create(&tmp)?);
+    let mut slice = vec![0u8; dims[0] * dims[1]];
+    for z in 0..dims[2] {
+        for y in 0..dims[1] {
+            for x in 0..dims[0] {
+                let p = crate::volume::ml_position(dims, [x as f64, y as f64, z as f64]);
+                slice[x + dims[0] * y] = (crate::volume::marschner_lobb(p) * 255.0).round().clamp(0.0, 255.0) as u8;
+            }
+        }
+        f.write_all(&slice)?;
+        progress(z + 1, dims[2]);
+    }
+    f.flush()?;
+    drop(f);
+    std::fs::rename(&tmp, path)?;
+    Ok(true)
+}
+
+fn mib(b: u64) -> String {
+    format!("{:.0} MiB", b as f64 / (1024.0 * 1024.0))
+}
+
+fn num(v: &serde_json::Value, path: &[&str]) -> f64 {
+    let mut x = v;
+    for p in path {
+        x = &x[*p];
+    }
+    x.as_f64().unwrap_or(f64::NAN)
+}
+
+/// The section as Markdown.
+pub fn markdown(r: &VolumesReport, command: &str) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "{SECTION_START}\n## Volumes larger than one texture\n");
+    let _ = writeln!(s, "Generated by `{command}` on {}.\n", r.adapter);
+    let _ = writeln!(
+        s,
+        "**In core** ({}, {}x{} isosurface, iso 0.5, median of {} interleaved rounds after a warm-up frame each): the bricked layout (bricks of {} texels with the filter's halo, one page-table lookup per evaluation) and u8 samples (R8Unorm, the map applied once per evaluation) against the embedded f32 texture. Ratio: embedded f32 ms / this row's ms (> 1: faster).\n",
+        r.in_core_volume, r.size, r.size, r.rounds, BrickShape::DEFAULT_EDGE
+    );
+    let _ = writeln!(s, "| filter | layout | format | ms/frame | ratio | device bytes |");
+    let _ = writeln!(s, "|---|---|---|---:|---:|---:|");
+    for row in &r.in_core {
+        let base = r.in_core.iter().find(|b| b.filter == row.filter && b.layout == "embedded" && b.format == "f32");
+        let ratio = base.map_or(f64::NAN, |b| b.ms / row.ms);
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {:.2} | {:.2}x | {} |",
+            row.filter, row.layout, row.format, row.ms, ratio, row.bytes
+        );
+    }
+    let _ = writeln!(s);
+    if !r.out_of_core.is_empty() {
+        let _ = writeln!(
+            s,
+            "**Out of core** (`render --gpu-budget`, each row its own process reading the u8 file through a memory map; 256x256 frames): the first frame starts with an empty pool, the warm frame follows it. Peak host memory is the process's VmHWM; on lavapipe device memory is host memory, so it holds the pool too. Fixed overhead: VmHWM of the same command on `ml:8` (driver, shader compiler, buffers).\n"
+        );
+        let _ = writeln!(s, "| filter | volume | budget | bounds (s) | first frame ms (passes, bricks uploaded) | warm frame ms (passes, uploads) | slots | bricks holding surface / all | device | peak host | fixed overhead | host - overhead vs budget |");
+        let _ = writeln!(s, "|---|---|---:|---:|---|---|---:|---|---:|---:|---:|---|");
+        for row in &r.out_of_core {
+            let st = &row.stats;
+            let host = st["host_peak_bytes"].as_u64().unwrap_or(0);
+            let base = row.baseline_host_bytes.unwrap_or(0);
+            let over = host.saturating_sub(base);
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} | {:.1} | {:.0} ({}, {}) | {:.0} ({}, {}) | {} | {} / {} | {} | {} | {} | {} {} {} |",
+                row.filter,
+                row.volume,
+                mib(row.budget),
+                num(st, &["preprocess_ms"]) / 1e3,
+                num(st, &["first", "ms"]),
+                st["first"]["passes"],
+                st["first"]["uploads"],
+                num(st, &["warm", "ms"]),
+                st["warm"]["passes"],
+                st["warm"]["uploads"],
+                st["first"]["slots"],
+                st["first"]["occupied_bricks"],
+                st["first"]["bricks"],
+                mib(st["first"]["device_bytes"].as_u64().unwrap_or(0)),
+                mib(host),
+                mib(base),
+                mib(over),
+                if over <= row.budget { "<=" } else { ">" },
+                mib(row.budget),
+            );
+        }
+        let _ = writeln!(s);
+    }
+    let _ = writeln!(s, "{SECTION_END}");
+    s
+}
+
+/// `file` with this section replaced (or appended).
+pub fn splice(file: &str, section: &str) -> String {
+    super::derive::splice_between(file, section, SECTION_START, SECTION_END)
+}
+
+/// This section of `file`, if it has one.
+pub fn existing_section(file: &str) -> Option<&str> {
+    super::derive::section_between(file, SECTION_START, SECTION_END)
+}
