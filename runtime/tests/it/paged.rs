@@ -115,3 +115,46 @@ fn a_budget_smaller_than_the_pool_needs_is_refused_with_the_size_it_needs() {
     let e = PagedIsoRenderer::new(gpu, &d, &vol, options, &|_, _| {}).err().expect("refused").to_string();
     assert!(e.contains("budget") && e.contains("give at least"), "{e}");
 }
+
+#[test]
+fn a_memory_mapped_file_renders_out_of_core_as_the_loaded_volume_in_core() {
+    let gpu = crate::common::gpu();
+    let d = derive("fcc6");
+    // A u8 raw file of Marschner-Lobb, written here and read lazily.
+    let dims = [40usize, 36, 32];
+    let mut bytes = Vec::with_capacity(dims.iter().product());
+    for z in 0..dims[2] {
+        for y in 0..dims[1] {
+            for x in 0..dims[0] {
+                let p = boxforge_runtime::volume::ml_position(dims, [x as f64, y as f64, z as f64]);
+                bytes.push((boxforge_runtime::volume::marschner_lobb(p) * 255.0).round() as u8);
+            }
+        }
+    }
+    let path = std::env::temp_dir().join(format!("boxforge-paged-{}.raw", std::process::id()));
+    std::fs::write(&path, &bytes).unwrap();
+    let ty = boxforge_runtime::volume::RawType::U8;
+    let mapped = boxforge_runtime::volume::MappedVolume::open_raw(&path, dims, ty, &d.filter.lattice).unwrap();
+    let loaded =
+        LatticeVolume::subset(&d.filter.lattice, &boxforge_runtime::volume::Volume::load_raw(&path, dims, ty).unwrap())
+            .unwrap();
+    let o = RenderOptions { width: 40, height: 40, iso: 127.5, frames: 0, ..RenderOptions::default() };
+    let in_core = render(gpu, &d, &loaded, Layout::Embedded, &o).unwrap();
+    let slot = 4 + 2 * boxforge::emit::bricks::brick_halo(&d);
+    let options = PagedOptions {
+        iso: o.iso,
+        step: o.step,
+        block: o.block,
+        brick: 4,
+        format: SampleFormat::F32,
+        budget: 1 << 30,
+        max_pixels: 1600,
+        max_pool_edge: Some(3 * slot),
+    };
+    let mut r = PagedIsoRenderer::new(gpu, &d, &mapped, options, &|_, _| {}).unwrap();
+    let (frame, stats) = r.render(&mapped, &o).unwrap();
+    let _ = std::fs::remove_file(&path);
+    let (flips, rms) = compare(&in_core.rgba, &frame.rgba);
+    assert!(stats.passes > 2, "{stats:?}");
+    assert!(flips == 0 && rms < 0.5, "mapped paged image differs ({flips} flips, RMS {rms:.3}/255, {stats:?})");
+}

@@ -317,6 +317,57 @@ pub fn perm_failure(e: &PermError) -> String {
     }
 }
 
+/// `--brick`: only with `--layout bricked`, and an edge of 2 to 1024 texels.
+pub fn check_brick(brick: Option<usize>, layout: Layout) -> Result<(), String> {
+    match brick {
+        Some(_) if layout != Layout::Bricked => {
+            Err("--brick sizes the bricks of the bricked layout: add --layout bricked, or drop --brick".into())
+        }
+        Some(b) if !(2..=1024).contains(&b) => {
+            Err(format!("--brick {b}: a brick edge is 2 to 1024 lattice texels; e.g. --brick 32"))
+        }
+        _ => Ok(()),
+    }
+}
+
+/// `--gpu-budget SIZE`: bytes from "2GiB", "256MiB", "512MB", "64KiB" or a
+/// plain byte count.
+pub fn parse_budget(text: &str) -> Result<u64, String> {
+    let t = text.trim();
+    let split = t.find(|c: char| !(c.is_ascii_digit() || c == '.')).unwrap_or(t.len());
+    let (num, unit) = t.split_at(split);
+    let scale: f64 = match unit.trim().to_ascii_lowercase().as_str() {
+        "" | "b" => 1.0,
+        "kib" | "k" => 1024.0,
+        "mib" | "m" => 1024.0 * 1024.0,
+        "gib" | "g" => 1024.0 * 1024.0 * 1024.0,
+        "kb" => 1e3,
+        "mb" => 1e6,
+        "gb" => 1e9,
+        _ => f64::NAN,
+    };
+    match num.parse::<f64>() {
+        Ok(n) if n > 0.0 && n.is_finite() && scale.is_finite() && n * scale < 1e15 => Ok((n * scale) as u64),
+        _ => Err(format!("--gpu-budget {text}: give a size such as 256MiB, 2GiB or 500000000")),
+    }
+}
+
+/// The renderers `--gpu-budget` works with: isosurfaces by fixed steps.
+pub fn check_paged(tf: bool, exact: bool, layout: Layout, other_renderer: bool) -> Result<(), String> {
+    if tf || other_renderer {
+        return Err("--gpu-budget renders isosurfaces out of core (the ray caster by fixed steps); out-of-core DVR, PERM, schemes and --renderer pt are not offered: drop --gpu-budget or --tf/--cache/--renderer".into());
+    }
+    if exact {
+        return Err(
+            "--gpu-budget walks rays by fixed steps; out of core the exact hit is not offered: use --hit step".into()
+        );
+    }
+    if layout == Layout::Packed {
+        return Err("--gpu-budget stores the samples in bricks (the bricked layout); drop --layout packed".into());
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -387,55 +438,17 @@ mod tests {
         assert!(check_cache("perm", "dvr", Some(largest), None).is_ok());
         assert!(check_cache("perm", "dvr", Some(largest + 1), None).is_err());
     }
-}
 
-/// `--brick`: only with `--layout bricked`, and an edge of 2 to 1024 texels.
-pub fn check_brick(brick: Option<usize>, layout: Layout) -> Result<(), String> {
-    match brick {
-        Some(_) if layout != Layout::Bricked => {
-            Err("--brick sizes the bricks of the bricked layout: add --layout bricked, or drop --brick".into())
+    #[test]
+    fn budgets_parse_with_units_and_bad_ones_name_the_flag() {
+        assert_eq!(parse_budget("256MiB"), Ok(256 << 20));
+        assert_eq!(parse_budget("2GiB"), Ok(2 << 30));
+        assert_eq!(parse_budget("1.5 KiB"), Ok(1536));
+        assert_eq!(parse_budget("500000"), Ok(500_000));
+        assert_eq!(parse_budget("1GB"), Ok(1_000_000_000));
+        for bad in ["", "0", "-1GiB", "12 parsecs", "GiB", "1e400"] {
+            let e = parse_budget(bad).unwrap_err();
+            assert!(e.contains("--gpu-budget"), "{bad}: {e}");
         }
-        Some(b) if !(2..=1024).contains(&b) => {
-            Err(format!("--brick {b}: a brick edge is 2 to 1024 lattice texels; e.g. --brick 32"))
-        }
-        _ => Ok(()),
     }
-}
-
-/// `--gpu-budget SIZE`: bytes from "2GiB", "256MiB", "512MB", "64KiB" or a
-/// plain byte count.
-pub fn parse_budget(text: &str) -> Result<u64, String> {
-    let t = text.trim();
-    let split = t.find(|c: char| !(c.is_ascii_digit() || c == '.')).unwrap_or(t.len());
-    let (num, unit) = t.split_at(split);
-    let scale: f64 = match unit.trim().to_ascii_lowercase().as_str() {
-        "" | "b" => 1.0,
-        "kib" | "k" => 1024.0,
-        "mib" | "m" => 1024.0 * 1024.0,
-        "gib" | "g" => 1024.0 * 1024.0 * 1024.0,
-        "kb" => 1e3,
-        "mb" => 1e6,
-        "gb" => 1e9,
-        _ => f64::NAN,
-    };
-    match num.parse::<f64>() {
-        Ok(n) if n > 0.0 && n.is_finite() && scale.is_finite() && n * scale < 1e15 => Ok((n * scale) as u64),
-        _ => Err(format!("--gpu-budget {text}: give a size such as 256MiB, 2GiB or 500000000")),
-    }
-}
-
-/// The renderers `--gpu-budget` works with: isosurfaces by fixed steps.
-pub fn check_paged(tf: bool, exact: bool, layout: Layout, other_renderer: bool) -> Result<(), String> {
-    if tf || other_renderer {
-        return Err("--gpu-budget renders isosurfaces out of core (the ray caster by fixed steps); out-of-core DVR, PERM, schemes and --renderer pt are not offered: drop --gpu-budget or --tf/--cache/--renderer".into());
-    }
-    if exact {
-        return Err(
-            "--gpu-budget walks rays by fixed steps; out of core the exact hit is not offered: use --hit step".into()
-        );
-    }
-    if layout == Layout::Packed {
-        return Err("--gpu-budget stores the samples in bricks (the bricked layout); drop --layout packed".into());
-    }
-    Ok(())
 }

@@ -134,7 +134,7 @@ impl PagedIsoRenderer {
         let dims = source.dims();
         let period = bounds::lattice_period(source.lattice());
         let block = options.block.max(1) as usize;
-        if options.brick == 0 || options.brick % block != 0 || options.brick % period != 0 {
+        if options.brick == 0 || !options.brick.is_multiple_of(block) || !options.brick.is_multiple_of(period) {
             return Err(fail(format!(
                 "brick edge {} must be a multiple of the block edge {block} and of the lattice's period {period}; e.g. --brick 32",
                 options.brick
