@@ -96,3 +96,115 @@ pub fn prefilter_gpu_with(
     let data: Vec<f32> = bytemuck::cast_slice(&gpu.read_buffer(&out)?).to_vec();
     Ok(LatticeVolume { lattice: vol.lattice.clone(), dims: vol.dims, data })
 }
+
+/// The prefilter out of core: `source` read and prefiltered in z-slabs of
+/// whole xy planes, each with a halo as wide as the taps reach (rounded up
+/// to the lattice's period, so local coordinates keep the lattice), by the
+/// emitted `<f>_prefilter_main` on an embedded sub-volume; the results are
+/// written to `out` as raw little-endian f32 (x fastest, 0 off the lattice),
+/// the layout a [`crate::volume::MappedVolume`] reads back. Host and device
+/// memory stay about `max_texels` texels whatever the volume's size.
+pub fn prefilter_to_file(
+    gpu: &Gpu,
+    d: &Derivation,
+    source: &dyn crate::volume::BrickSource,
+    out: &std::path::Path,
+    max_texels: usize,
+    progress: &dyn Fn(usize, usize),
+) -> Result<(), PrefilterError> {
+    use std::io::Write;
+    let name = &d.filter.name;
+    let dims = source.dims();
+    let vol_err = |e: crate::volume::VolumeError| PrefilterError::Emit(e.to_string());
+    let period = crate::render::paged::bounds::lattice_period(source.lattice());
+    let reach =
+        d.prefilter.taps.iter().flat_map(|(k, _)| k.iter().map(|c| c.unsigned_abs() as usize)).max().unwrap_or(0);
+    let halo = reach.div_ceil(period).max(1) * period;
+    let plane = (dims[0] + 2 * halo) * (dims[1] + 2 * halo);
+    // z-planes per slab: a multiple of the period, the texels and the
+    // points of one dispatch capped.
+    let by_texels = (max_texels / plane).saturating_sub(2 * halo);
+    let by_points = (65535 * 64) / (dims[0] * dims[1]).max(1);
+    let nz = (by_texels.min(by_points) / period * period).max(period).min(dims[2].next_multiple_of(period));
+    let module =
+        emit(d, &boxforge::emit::EmitOptions { command: "boxforge prefilter (slabs)".into(), ..Default::default() })
+            .map_err(|e| PrefilterError::Emit(e.to_string()))?;
+    let shader = gpu.compile(&module.file_name, &module.source)?;
+    let dev = &gpu.device;
+    let entries = [
+        crate::gpu::binding::texture_3d_entry(0, wgpu::ShaderStages::COMPUTE, false),
+        storage_entry(1, false),
+        uniform_entry(2),
+    ];
+    let bgl = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("prefilter slab"),
+        entries: &entries,
+    });
+    let pipeline = gpu.pipeline("prefilter slab", &shader, &[&bgl], &format!("{name}_prefilter_main"))?;
+    let size = [dims[0] + 2 * halo, dims[1] + 2 * halo, nz + 2 * halo];
+    let tex = dev.create_texture(&wgpu::TextureDescriptor {
+        label: Some("prefilter slab"),
+        size: wgpu::Extent3d { width: size[0] as u32, height: size[1] as u32, depth_or_array_layers: size[2] as u32 },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D3,
+        format: wgpu::TextureFormat::R32Float,
+        usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+        view_formats: &[],
+    });
+    let view = tex.create_view(&Default::default());
+    let outbuf = gpu.storage_buffer("prefiltered slab", &vec![0u8; dims[0] * dims[1] * nz * 4], true);
+    let job_buf = gpu.uniform_buffer("prefilter job", &[0u8; 32]);
+    let bg = dev.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("prefilter slab"),
+        layout: &bgl,
+        entries: &[
+            wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&view) },
+            wgpu::BindGroupEntry { binding: 1, resource: outbuf.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 2, resource: job_buf.as_entire_binding() },
+        ],
+    });
+    let io = |e: std::io::Error| PrefilterError::Emit(format!("cannot write {}: {e}", out.display()));
+    let tmp = out.with_extension("partial");
+    let mut file = std::io::BufWriter::new(std::fs::File::create(&tmp).map_err(io)?);
+    let mut values = vec![0f32; size[0] * size[1] * size[2]];
+    let slabs = dims[2].div_ceil(nz);
+    for (i, z0) in (0..dims[2]).step_by(nz).enumerate() {
+        let n = nz.min(dims[2] - z0);
+        let lo = [-(halo as i64), -(halo as i64), z0 as i64 - halo as i64];
+        let box_size = [size[0], size[1], n + 2 * halo];
+        let texels = box_size[0] * box_size[1] * box_size[2];
+        source.read_box(lo, box_size, &mut values[..texels]).map_err(vol_err)?;
+        gpu.queue.write_texture(
+            wgpu::TexelCopyTextureInfo {
+                texture: &tex,
+                mip_level: 0,
+                origin: wgpu::Origin3d::ZERO,
+                aspect: wgpu::TextureAspect::All,
+            },
+            bytemuck::cast_slice(&values[..texels]),
+            wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(box_size[0] as u32 * 4),
+                rows_per_image: Some(box_size[1] as u32),
+            },
+            wgpu::Extent3d {
+                width: box_size[0] as u32,
+                height: box_size[1] as u32,
+                depth_or_array_layers: box_size[2] as u32,
+            },
+        );
+        let h = halo as i32;
+        let job: [i32; 8] = [h, h, h, 0, dims[0] as i32, dims[1] as i32, n as i32, 1];
+        gpu.queue.write_buffer(&job_buf, 0, bytemuck::cast_slice(&job));
+        let points = dims[0] * dims[1] * n;
+        gpu.dispatch("prefilter slab", &pipeline, &[&bg], ((points as u32).div_ceil(64), 1, 1))?;
+        let bytes = gpu.read_buffer(&outbuf)?;
+        file.write_all(&bytes[..points * 4]).map_err(io)?;
+        progress(i + 1, slabs);
+    }
+    file.flush().map_err(io)?;
+    drop(file);
+    std::fs::rename(&tmp, out).map_err(io)?;
+    Ok(())
+}

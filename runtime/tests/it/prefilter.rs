@@ -36,3 +36,33 @@ fn gpu_prefilter_equals_cpu_for_every_3d_filter_and_layout() {
         }
     }
 }
+
+/// Out of core: the prefilter in z-slabs of a source, written to a raw f32
+/// file and read back through a memory map, equals the CPU prefilter of the
+/// whole volume (slabs forced small, so halos meet in the volume's interior).
+#[test]
+fn the_prefilter_in_slabs_to_a_file_equals_the_whole_volume_prefilter() {
+    let gpu = crate::common::gpu();
+    for name in ["bcc7", "cc_tricubic", "fcc6"] {
+        let d = boxforge::derive::Derivation::new(&boxforge::spec::catalog::get(name).unwrap()).unwrap();
+        let vol = boxforge_runtime::volume::LatticeVolume::marschner_lobb(&d.filter.lattice, [18, 14, 23]).unwrap();
+        let path = std::env::temp_dir().join(format!("boxforge-prefilter-{name}-{}.raw", std::process::id()));
+        let slabs = std::cell::Cell::new(0);
+        boxforge_runtime::prefilter::prefilter_to_file(gpu, &d, &vol, &path, 3000, &|_, n| slabs.set(n)).unwrap();
+        let back = boxforge_runtime::volume::MappedVolume::open_raw(
+            &path,
+            vol.dims,
+            boxforge_runtime::volume::RawType::F32,
+            &d.filter.lattice,
+        )
+        .unwrap();
+        let cpu = boxforge_runtime::prefilter::prefilter_cpu(&d, &vol);
+        let mut got = vec![0f32; cpu.data.len()];
+        use boxforge_runtime::volume::BrickSource;
+        back.read_box([0, 0, 0], vol.dims, &mut got).unwrap();
+        let _ = std::fs::remove_file(&path);
+        let err = cpu.data.iter().zip(&got).map(|(a, b)| (a - b).abs()).fold(0.0f32, f32::max);
+        assert!(slabs.get() >= 3, "{name}: {} slabs; the test needs several", slabs.get());
+        assert!(err < 1e-5, "{name}: slab prefilter differs by {err}");
+    }
+}

@@ -129,11 +129,24 @@ impl PagedIsoRenderer {
         options: PagedOptions,
         progress: &dyn Fn(usize, usize),
     ) -> Result<PagedIsoRenderer, RenderError> {
+        let mut options = options;
         let fail = |m: String| RenderError::Gpu(GpuError::Runtime(m));
         let name = d.filter.name.clone();
         let dims = source.dims();
         let period = bounds::lattice_period(source.lattice());
-        let block = options.block.max(1) as usize;
+        // The block edge grows (doubling, up to the brick) until the bounds
+        // with the distance map (12 bytes a block) fit one storage binding
+        // and an eighth of the budget: a large volume gets coarser blocks.
+        let binding_limit = gpu.limits().max_storage_buffer_binding_size as u64;
+        let mut block = options.block.max(1) as usize;
+        let bounds_bytes = |b: usize| dims.iter().map(|n| n.div_ceil(b) as u64).product::<u64>() * 12;
+        while 2 * block <= options.brick
+            && options.brick.is_multiple_of(2 * block)
+            && bounds_bytes(block) > binding_limit.min(options.budget / 8)
+        {
+            block *= 2;
+        }
+        options.block = block as i32;
         if options.brick == 0 || !options.brick.is_multiple_of(block) || !options.brick.is_multiple_of(period) {
             return Err(fail(format!(
                 "brick edge {} must be a multiple of the block edge {block} and of the lattice's period {period}; e.g. --brick 32",
