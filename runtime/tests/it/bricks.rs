@@ -225,3 +225,47 @@ fn prefilter_and_bounds_in_a_compact_format_match_f32_within_its_resolution() {
     }
     assert!(b8.iter().any(|b| b[0] >= 10.0 - 1e-3 && b[1] <= 60.0 + 1e-3), "bounds are in data units");
 }
+
+/// DVR and PERM read compact samples too: the u8 images (the same emitted
+/// module with the map) are within a small RMS of the f32 ones, and the
+/// bricked u8 DVR equals the embedded u8 DVR.
+#[test]
+fn dvr_and_perm_in_u8_match_f32_and_bricks_match_embedded() {
+    let gpu = crate::common::gpu();
+    let d = derive("bcc7");
+    let vol = LatticeVolume::marschner_lobb(&d.filter.lattice, [28, 28, 28]).unwrap();
+    let tf = TransferFunction::preset("marschner-lobb");
+    let o = DvrOptions { width: 40, height: 40, frames: 0, ..DvrOptions::default() };
+    let u8o = VolumeOptions { format: SampleFormat::U8, ..Default::default() };
+    let dvr = |layout: Layout, volume: VolumeOptions| {
+        boxforge_runtime::render::dvr::render(gpu, &d, &vol, layout, &tf, &DvrOptions { volume, ..o.clone() })
+            .unwrap()
+            .rgba
+    };
+    let f32_img = dvr(Layout::Embedded, VolumeOptions::default());
+    let u8_img = dvr(Layout::Embedded, u8o);
+    let (_, rms) = compare(&f32_img, &u8_img);
+    assert!(rms < 3.0 && f32_img != u8_img, "u8 DVR against f32: RMS {rms:.3}/255");
+    let bricked = dvr(Layout::Bricked, VolumeOptions { format: SampleFormat::U8, ..small_bricks(&d, 8, None) });
+    let (_, rms) = compare(&u8_img, &bricked);
+    assert!(rms < 0.5, "bricked u8 DVR against embedded u8: RMS {rms:.3}/255");
+
+    let quant = boxforge_runtime::render::perm::Quant { density: 5, gradient: 3 };
+    let perm = |volume: VolumeOptions| {
+        boxforge_runtime::render::perm::render(
+            gpu,
+            &d,
+            &vol,
+            Layout::Embedded,
+            &tf,
+            &DvrOptions { volume, ..o.clone() },
+            quant,
+            false,
+        )
+        .unwrap()
+        .0
+        .rgba
+    };
+    let (_, rms) = compare(&perm(VolumeOptions::default()), &perm(u8o));
+    assert!(rms < 3.0, "u8 PERM against f32 PERM: RMS {rms:.3}/255");
+}
