@@ -219,6 +219,7 @@ mod tests {
         assert!(v.slots.iter().product::<usize>() >= 7);
         assert!(vol.bricked(BrickShape { edge: 0, halo: 1 }, 64).is_err());
         assert!(vol.bricked(BrickShape { edge: 4, halo: 1 }, 5).is_err(), "a slot wider than the pool");
-        assert!(vol.bricked(BrickShape { edge: 4, halo: 1 }, 12).is_err(), "8 bricks in a pool of 2x2x2 slots fit");
+        assert!(vol.bricked(BrickShape { edge: 4, halo: 1 }, 12).is_ok(), "8 bricks in a pool of 2x2x2 slots fit");
+        assert!(vol.bricked(BrickShape { edge: 2, halo: 1 }, 12).is_err(), "64 bricks in a pool of 3x3x3 slots do not");
     }
 }

@@ -33,7 +33,7 @@ impl Default for VolumeOptions {
 /// enough for every built-in filter (a test holds it to their
 /// [`boxforge::emit::bricks::brick_halo`]); renderers check a volume's halo
 /// against their filter's and say how to rebuild it.
-pub const DEFAULT_HALO: usize = 4;
+pub const DEFAULT_HALO: usize = 5;
 
 /// Samples uploaded for one layout, with the bind-group pieces the emitted
 /// module declares (embedded: one 3D texture; packed: one 3D texture with a

@@ -17,7 +17,10 @@ pub use serve::{serve, Server};
 
 use crate::render::iso::{raycast_shader, HitMode};
 use crate::volume::Volume;
-use boxforge::build::output::{generated_files, write_atomic, ALL_LAYOUTS, ALL_VARIANTS};
+use boxforge::build::output::{generated_files, write_atomic, ALL_VARIANTS};
+
+/// The layouts the browser viewer binds (bricks and paging stay native).
+const WEB_LAYOUTS: [Layout; 2] = [Layout::Embedded, Layout::Packed];
 use boxforge::derive::Derivation;
 use boxforge::emit::{coset_pivots, Layout};
 use boxforge::Filter;
@@ -227,7 +230,7 @@ pub fn write_site(
     for (i, f) in filters.iter().enumerate() {
         progress(i, filters.len(), &f.name);
         let d = Derivation::new(f)?;
-        for (name, source) in generated_files(&d, WEB_COMMAND, &ALL_LAYOUTS, &ALL_VARIANTS)? {
+        for (name, source) in generated_files(&d, WEB_COMMAND, &WEB_LAYOUTS, &ALL_VARIANTS)? {
             if name.ends_with(".wgsl") {
                 modules.push(format!("modules/{name}"));
                 files.push((format!("modules/{name}"), source.into_bytes()));
@@ -236,11 +239,10 @@ pub fn write_site(
         if d.facts.dim != 3 {
             continue;
         }
-        let layouts: Vec<Layout> = ALL_LAYOUTS
+        let layouts: Vec<Layout> = WEB_LAYOUTS
             .iter()
             .copied()
-            // The viewer binds the embedded and packed layouts (bricks: the runtime).
-            .filter(|&l| l == Layout::Embedded || (l == Layout::Packed && coset_pivots(&f.lattice).is_ok()))
+            .filter(|&l| l == Layout::Embedded || coset_pivots(&f.lattice).is_ok())
             .collect();
         for &layout in &layouts {
             for hit in [HitMode::Step, HitMode::Exact] {

@@ -67,30 +67,27 @@ pub fn brick_row_bounds(
     let blocks = dims.map(|n| n.div_ceil(block));
     let per_brick = brick / block;
     let side = brick + 2 * halo;
-    // Bricks per row: as many along x as the texel cap and the texture limit allow.
+    // A slab: up to a texture edge of bricks along x and as many rows along
+    // y and layers along z as `max_texels` device texels (and one dispatch's
+    // workgroups) allow. The host fills it one row of bricks at a time (its
+    // memory: one row), the device bounds it in one dispatch (lavapipe keeps
+    // about a megabyte per dispatch of a large kernel, so few dispatches).
     let max_edge = gpu.limits().max_texture_dimension_3d as usize;
-    let row_len = ((max_texels / (side * side)).saturating_sub(2 * halo) / brick)
-        .min((max_edge - 2 * halo) / brick)
-        .clamp(1, bricks[0]);
-    // Whole rows along x: stack as many along y as the cap allows (a slab),
-    // so a large volume takes few dispatches.
-    let rows_y = if row_len == bricks[0] {
-        ((max_texels / ((row_len * brick + 2 * halo) * side)).saturating_sub(2 * halo) / brick)
-            .min((max_edge - 2 * halo) / brick)
-            .clamp(1, bricks[1])
-    } else {
-        1
-    };
+    let fit = |avail: usize, cap: usize| ((avail.saturating_sub(2 * halo)) / brick).clamp(1, cap);
+    let row_len = fit(max_edge, bricks[0]);
+    let width = row_len * brick + 2 * halo;
+    let rows_y = fit((max_texels / (width * side)).min(max_edge), bricks[1]);
+    let height = rows_y * brick + 2 * halo;
+    let max_blocks = 65535 * 64;
+    let layers_z = fit((max_texels / (width * height)).min(max_edge), bricks[2])
+        .min((max_blocks / (row_len * rows_y * per_brick.pow(3))).max(1));
+    let depth = layers_z * brick + 2 * halo;
     let mut bounds = vec![[0f32; 2]; blocks[0] * blocks[1] * blocks[2]];
-    // One texture, output and job buffer for every row (a shorter last row
+    // One texture, output and job buffer for every slab (a smaller last slab
     // uses a corner of them: its stencils never reach past what it writes).
     let tex = dev.create_texture(&wgpu::TextureDescriptor {
-        label: Some("brick row"),
-        size: wgpu::Extent3d {
-            width: (row_len * brick + 2 * halo) as u32,
-            height: (rows_y * brick + 2 * halo) as u32,
-            depth_or_array_layers: side as u32,
-        },
+        label: Some("brick slab"),
+        size: wgpu::Extent3d { width: width as u32, height: height as u32, depth_or_array_layers: depth as u32 },
         mip_level_count: 1,
         sample_count: 1,
         dimension: wgpu::TextureDimension::D3,
@@ -99,10 +96,10 @@ pub fn brick_row_bounds(
         view_formats: &[],
     });
     let view = tex.create_view(&Default::default());
-    let out = gpu.storage_buffer("row bounds", &vec![0u8; row_len * rows_y * per_brick.pow(3) * 8], true);
-    let job_buf = gpu.uniform_buffer("row job", &[0u8; 32]);
+    let out = gpu.storage_buffer("slab bounds", &vec![0u8; row_len * rows_y * layers_z * per_brick.pow(3) * 8], true);
+    let job_buf = gpu.uniform_buffer("slab job", &[0u8; 32]);
     let bg = dev.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("row bounds"),
+        label: Some("slab bounds"),
         layout: &bgl,
         entries: &[
             wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&view) },
@@ -110,55 +107,69 @@ pub fn brick_row_bounds(
             wgpu::BindGroupEntry { binding: 2, resource: job_buf.as_entire_binding() },
         ],
     });
-    let rows = bricks[1].div_ceil(rows_y) * bricks[2] * bricks[0].div_ceil(row_len);
+    let rows = bricks[0].div_ceil(row_len) * bricks[1] * bricks[2];
     let mut done = 0;
     let mut values = Vec::new();
-    for kz in 0..bricks[2] {
-        for ky in (0..bricks[1]).step_by(rows_y) {
+    for kz0 in (0..bricks[2]).step_by(layers_z) {
+        for ky0 in (0..bricks[1]).step_by(rows_y) {
             for kx0 in (0..bricks[0]).step_by(row_len) {
-                let n = row_len.min(bricks[0] - kx0);
-                let ny = rows_y.min(bricks[1] - ky);
-                let size = [n * brick + 2 * halo, ny * brick + 2 * halo, side];
-                let lo = [
-                    (kx0 * brick) as i64 - halo as i64,
-                    (ky * brick) as i64 - halo as i64,
-                    (kz * brick) as i64 - halo as i64,
-                ];
-                values.resize(size[0] * size[1] * size[2], 0.0);
-                source.read_box(lo, size, &mut values).map_err(runtime)?;
-                // The samples the renderer will read, in its texture format
-                // (the device's conversion of stored texels is the same).
-                let stored = format.encode(&values, map).map_err(runtime)?;
-                gpu.queue.write_texture(
-                    wgpu::TexelCopyTextureInfo {
-                        texture: &tex,
-                        mip_level: 0,
-                        origin: wgpu::Origin3d::ZERO,
-                        aspect: wgpu::TextureAspect::All,
-                    },
-                    &stored,
-                    wgpu::TexelCopyBufferLayout {
-                        offset: 0,
-                        bytes_per_row: Some((size[0] * format.bytes()) as u32),
-                        rows_per_image: Some(size[1] as u32),
-                    },
-                    wgpu::Extent3d {
-                        width: size[0] as u32,
-                        height: size[1] as u32,
-                        depth_or_array_layers: size[2] as u32,
-                    },
-                );
-                let count = [n * per_brick, ny * per_brick, per_brick];
+                let n = [row_len.min(bricks[0] - kx0), rows_y.min(bricks[1] - ky0), layers_z.min(bricks[2] - kz0)];
+                // Row by row: the box of one row of bricks with its halo
+                // (neighbouring rows' halos overlap with the same texels).
+                for kz in kz0..kz0 + n[2] {
+                    for ky in ky0..ky0 + n[1] {
+                        let size = [n[0] * brick + 2 * halo, side, side];
+                        let lo = [
+                            (kx0 * brick) as i64 - halo as i64,
+                            (ky * brick) as i64 - halo as i64,
+                            (kz * brick) as i64 - halo as i64,
+                        ];
+                        values.resize(size[0] * size[1] * size[2], 0.0);
+                        source.read_box(lo, size, &mut values).map_err(runtime)?;
+                        // The samples the renderer will read, in its texture
+                        // format (the device's conversion of stored texels is the same).
+                        let stored = format.encode(&values, map).map_err(runtime)?;
+                        gpu.queue.write_texture(
+                            wgpu::TexelCopyTextureInfo {
+                                texture: &tex,
+                                mip_level: 0,
+                                origin: wgpu::Origin3d {
+                                    x: 0,
+                                    y: ((ky - ky0) * brick) as u32,
+                                    z: ((kz - kz0) * brick) as u32,
+                                },
+                                aspect: wgpu::TextureAspect::All,
+                            },
+                            &stored,
+                            wgpu::TexelCopyBufferLayout {
+                                offset: 0,
+                                bytes_per_row: Some((size[0] * format.bytes()) as u32),
+                                rows_per_image: Some(size[1] as u32),
+                            },
+                            wgpu::Extent3d {
+                                width: size[0] as u32,
+                                height: size[1] as u32,
+                                depth_or_array_layers: size[2] as u32,
+                            },
+                        );
+                        // Flush the staging copy now, so host memory holds one row.
+                        gpu.queue.submit([]);
+                        done += 1;
+                        progress(done, rows);
+                    }
+                    gpu.wait()?;
+                }
+                let count = [n[0] * per_brick, n[1] * per_brick, n[2] * per_brick];
                 let total = count[0] * count[1] * count[2];
                 let h = halo as i32;
                 let job: [i32; 8] = [h, h, h, 0, count[0] as i32, count[1] as i32, count[2] as i32, block as i32];
                 gpu.queue.write_buffer(&job_buf, 0, bytemuck::cast_slice(&job));
-                gpu.dispatch("row bounds", &pipeline, &[&bg], ((total as u32).div_ceil(64), 1, 1))?;
+                gpu.dispatch("slab bounds", &pipeline, &[&bg], ((total as u32).div_ceil(64), 1, 1))?;
                 let raw: Vec<f32> = bytemuck::cast_slice(&gpu.read_buffer(&out)?[..total * 8]).to_vec();
                 for bz in 0..count[2] {
                     for by in 0..count[1] {
                         for bx in 0..count[0] {
-                            let g = [kx0 * per_brick + bx, ky * per_brick + by, kz * per_brick + bz];
+                            let g = [kx0 * per_brick + bx, ky0 * per_brick + by, kz0 * per_brick + bz];
                             if g[0] < blocks[0] && g[1] < blocks[1] && g[2] < blocks[2] {
                                 let i = bx + count[0] * (by + count[1] * bz);
                                 bounds[g[0] + blocks[0] * (g[1] + blocks[1] * g[2])] = [raw[2 * i], raw[2 * i + 1]];
@@ -166,8 +177,6 @@ pub fn brick_row_bounds(
                         }
                     }
                 }
-                done += 1;
-                progress(done, rows);
             }
         }
     }

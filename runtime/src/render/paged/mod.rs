@@ -200,12 +200,12 @@ impl PagedIsoRenderer {
         }
         let (lo, hi) = source.sample_range().map_err(|e| fail(e.to_string()))?;
         let map = format.map_for(lo, hi);
-        // Preprocessing scratch: a slab of texels as f32 (4 bytes), stored
-        // (up to 4) and on the device: about the budget in host memory. Few
-        // large dispatches also matter on lavapipe, which keeps about 1.3 MB
-        // per dispatch of bcc7's min/max kernel (measured: 64 dispatches
-        // +83 MB, 256 dispatches +330 MB of resident memory).
-        let max_texels = ((options.budget / 9) as usize).max(slot * slot * slot * 4);
+        // Preprocessing: a slab texture of at most half the budget on the
+        // device (freed before the pool is allocated), filled one row of
+        // bricks at a time from the host. Few large dispatches also matter
+        // on lavapipe, which keeps about 1.3 MB per dispatch of bcc7's
+        // min/max kernel (measured: 64 dispatches +83 MB, 256 +330 MB).
+        let max_texels = ((options.budget / 2) as usize / format.bytes()).max(slot * slot * slot * 4);
         let bounds = bounds::brick_row_bounds(gpu, d, source, format, map, shape.edge, block, max_texels, progress)?;
 
         let iso = options.iso;
