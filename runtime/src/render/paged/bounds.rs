@@ -180,5 +180,9 @@ pub fn brick_row_bounds(
             }
         }
     }
+    // Free the slab now: the pool is allocated next, within the same budget.
+    tex.destroy();
+    out.destroy();
+    gpu.wait()?;
     Ok(bounds)
 }

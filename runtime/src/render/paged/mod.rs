@@ -198,16 +198,28 @@ impl PagedIsoRenderer {
                 "a pool texture of at most {max_edge} texels per edge holds {capacity} slots of {slot}^3; use a smaller --brick"
             )));
         }
+        let mem = |what: &str| {
+            if std::env::var_os("BOXFORGE_MEMORY_TRACE").is_some() {
+                eprintln!(
+                    "{what}: RSS {:?} HWM {:?}",
+                    crate::memory::current_resident_bytes(),
+                    crate::memory::peak_resident_bytes()
+                );
+            }
+        };
+        mem("start");
         let (lo, hi) = source.sample_range().map_err(|e| fail(e.to_string()))?;
+        mem("range");
         let map = format.map_for(lo, hi);
-        // Preprocessing: a slab texture of at most half the budget on the
-        // device (freed before the pool is allocated), filled one row of
+        // Preprocessing: a slab texture of at most a quarter of the budget
+        // on the device (destroyed before the pool is allocated), filled one row of
         // bricks at a time from the host. Few large dispatches also matter
         // on lavapipe, which keeps about 1.3 MB per dispatch of bcc7's
         // min/max kernel (measured: 64 dispatches +83 MB, 256 +330 MB).
-        let max_texels = ((options.budget / 2) as usize / format.bytes()).max(slot * slot * slot * 4);
+        let max_texels = ((options.budget / 4) as usize / format.bytes()).max(slot * slot * slot * 4);
         let bounds = bounds::brick_row_bounds(gpu, d, source, format, map, shape.edge, block, max_texels, progress)?;
 
+        mem("bounds");
         let iso = options.iso;
         let empty: Vec<u32> = bounds.iter().map(|b| (iso < b[0] || iso > b[1]) as u32).collect();
         let empty_blocks = empty.iter().filter(|&&e| e != 0).count() as f64 / empty.len().max(1) as f64;
@@ -216,6 +228,7 @@ impl PagedIsoRenderer {
         let (distances, _) = blocks::skip_map(&empty, grid, 0, SkipMap::Distance);
         let blocks_buf = blocks::upload(gpu, "paged blocks", &blocks::bounds_with_distances(&bounds, &distances));
 
+        mem("skip map");
         let module = EmitOptions {
             layout: Layout::Bricked,
             samples: map,
@@ -320,6 +333,7 @@ impl PagedIsoRenderer {
             pass_stamp: 0,
         };
         renderer.write_pages();
+        mem("pool");
         Ok(renderer)
     }
 
@@ -447,6 +461,9 @@ impl PagedIsoRenderer {
             gpu.dispatch("paged raycast", &self.pipeline, &[&self.samples, &caster], groups)?;
             let bits: Vec<u32> = bytemuck::cast_slice(&gpu.read_buffer(&requests)?).to_vec();
             let pending = bits[words - 1];
+            if std::env::var_os("BOXFORGE_MEMORY_TRACE").is_some() {
+                eprintln!("pass {passes}: {pending} rays wait; RSS {:?}", crate::memory::current_resident_bytes());
+            }
             if pending == 0 {
                 break;
             }
@@ -459,8 +476,15 @@ impl PagedIsoRenderer {
                     self.cache.capacity()
                 )));
             }
-            for (k, slot) in admitted {
+            // Uploads go through staging memory until their copy has run:
+            // flush every few MiB, so the staging never holds a pass's bricks.
+            let per_flush = ((4 << 20) / (self.shape.slot().pow(3) * self.options.format.bytes())).max(1);
+            for (i, (k, slot)) in admitted.into_iter().enumerate() {
                 self.upload(source, k, slot, &mut scratch)?;
+                if (i + 1) % per_flush == 0 {
+                    gpu.queue.submit([]);
+                    gpu.wait()?;
+                }
             }
             self.write_pages();
         }
