@@ -137,7 +137,7 @@ impl PagedIsoRenderer {
         // The block edge grows (doubling, up to the brick) until the bounds
         // with the distance map (12 bytes a block) fit one storage binding
         // and an eighth of the budget: a large volume gets coarser blocks.
-        let binding_limit = gpu.limits().max_storage_buffer_binding_size as u64;
+        let binding_limit = gpu.limits().max_storage_buffer_binding_size;
         let mut block = options.block.max(1) as usize;
         let bounds_bytes = |b: usize| dims.iter().map(|n| n.div_ceil(b) as u64).product::<u64>() * 12;
         while 2 * block <= options.brick
