@@ -72,7 +72,9 @@ pub fn check_volume_limits(
     }
     Err(match layout {
         // A bricked pool is refolded to fit; its caller checks the pool's own size.
-        boxforge::emit::Layout::Embedded | boxforge::emit::Layout::Bricked => LimitError::TextureEdge { dims, max },
+        boxforge::emit::Layout::Embedded | boxforge::emit::Layout::Bricked | boxforge::emit::Layout::BrickedPacked => {
+            LimitError::TextureEdge { dims, max }
+        }
         boxforge::emit::Layout::Packed => LimitError::PackedTextureEdge { dims, texture, max },
     })
 }

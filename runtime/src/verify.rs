@@ -350,8 +350,11 @@ pub(crate) fn device_volume(
     fetch: FetchMode,
 ) -> Result<DeviceVolume, VerifyError> {
     Ok(match (fetch, layout) {
-        (FetchMode::Exact, Layout::Bricked) => {
-            let bricks = BrickShape { edge: VERIFY_BRICK_EDGE, halo: boxforge::emit::bricks::brick_halo(d) };
+        (FetchMode::Exact, Layout::Bricked | Layout::BrickedPacked) => {
+            let h = boxforge::emit::bricks::brick_halo(d);
+            // Coset-packed slots need an even halo.
+            let halo = if layout == Layout::BrickedPacked { h.next_multiple_of(2) } else { h };
+            let bricks = BrickShape { edge: VERIFY_BRICK_EDGE, halo };
             let options = VolumeOptions { bricks, max_pool_edge: Some(5 * bricks.slot()), ..Default::default() };
             DeviceVolume::with_options(gpu, vol, layout, &options)?
         }

@@ -105,7 +105,7 @@ pub fn translated_files(
 }
 
 /// Every layout and variant.
-pub const ALL_LAYOUTS: [Layout; 3] = [Layout::Embedded, Layout::Packed, Layout::Bricked];
+pub const ALL_LAYOUTS: [Layout; 4] = [Layout::Embedded, Layout::Packed, Layout::Bricked, Layout::BrickedPacked];
 /// Both code shapes, for generating every file.
 pub const ALL_VARIANTS: [Variant; 2] = [Variant::Fast, Variant::Naive];
 

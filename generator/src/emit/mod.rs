@@ -54,6 +54,9 @@ pub enum Layout {
     /// page table once per evaluation ([`bricks`]): volumes larger than one
     /// texture, and bricks kept resident only where a frame needs them.
     Bricked,
+    /// The same bricks, each slot holding its region coset-packed (one
+    /// texel per sample, a tile per coset of 2Z^s, as [`Layout::Packed`]).
+    BrickedPacked,
 }
 
 /// Code shape.
@@ -73,8 +76,14 @@ impl Layout {
             Layout::Embedded => "embedded",
             Layout::Packed => "packed",
             Layout::Bricked => "bricked",
+            Layout::BrickedPacked => "bricked-packed",
         }
     }
+    /// Whether the samples are bricks in a pool with a page table.
+    pub fn is_bricked(self) -> bool {
+        matches!(self, Layout::Bricked | Layout::BrickedPacked)
+    }
+
     /// Bindings the samples take from the first one (the kernels' outputs
     /// follow them): the texture; the coset grid uniform (packed); the
     /// bricks uniform and the page table (bricked).
@@ -82,7 +91,7 @@ impl Layout {
         match self {
             Layout::Embedded => 1,
             Layout::Packed => 2,
-            Layout::Bricked => 3,
+            Layout::Bricked | Layout::BrickedPacked => 3,
         }
     }
     /// The value named `s` (see [`name`](Self::name)); None for any other string.
@@ -91,6 +100,7 @@ impl Layout {
             "embedded" => Some(Layout::Embedded),
             "packed" => Some(Layout::Packed),
             "bricked" => Some(Layout::Bricked),
+            "bricked-packed" => Some(Layout::BrickedPacked),
             _ => None,
         }
     }
@@ -318,8 +328,8 @@ pub fn binding_purpose(filter: &str, name: &str) -> Option<&'static str> {
         "volume" => "The samples as an r32float texture: lattice point j at texel j (the other texels are unused).",
         "cosets" => "The samples packed per coset of 2Z^s as one r32float texture (filterable with fetch = linear): lattice point j at texel (j >> 1) + (j & p) * grid.size, p = 1 on the pivot axes of the coset id, so each coset's grid is one tile.",
         "grid" => "The coset grid: its size (x, y, z or x, y) and, in w, the words per coset.",
-        "pool" => "The brick pool as an r32float (or compact-format) texture: slot s holds brick k's texels k * B - h .. (k + 1) * B + h (clamped to the volume) at s * (B + 2h).",
-        "bricks" => "The brick geometry: the volume's size in lattice texels with the brick edge B in w, and the bricks per axis with the halo h in w.",
+        "pool" => "The brick pool as an r32float (or compact-format) texture: slot s holds brick k's texels k * B - h .. (k + 1) * B + h (clamped to the volume), as they are (bricked) or coset-packed in a tile per coset (bricked-packed).",
+        "bricks" => "The brick geometry: the volume's size in lattice texels (bricked) or its coset grid size (bricked-packed) with the brick edge B in w, and the bricks per axis with the halo h in w.",
         "pages" => "The page table as an r32uint texture, one texel per brick: its slot (10 bits per axis in 3D, 16 in 2D).",
         "linear" => "A linear, clamp-to-edge sampler for the hardware-filtered fetches.",
         "out" => "The kernels' output buffer: one prefiltered value per point of the job's box (row-major), or a (min, max) pair per block for minmax.",
@@ -420,7 +430,7 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
                 let lin = linear::LinearPlan::new(d);
                 (linear::emit_linear_body(d, &plan, &lin, &sh, name), Some(lin.fetches(&plan)))
             }
-            Layout::Bricked => {
+            Layout::Bricked | Layout::BrickedPacked => {
                 return Err(refuse(
                     "is not offered on the bricked layout (a pair may straddle a slot's halo); use exact fetches",
                 ))
@@ -445,7 +455,7 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
         (eval_body, None)
     };
     // Bricked: one page lookup per evaluation, every fetch from that slot.
-    let (eval_body, grad_body) = if opts.layout == Layout::Bricked {
+    let (eval_body, grad_body) = if opts.layout.is_bricked() {
         let paged = |body: &str| {
             format!(
                 "    let brick_page = {name}_page(p);\n{}",
@@ -487,7 +497,7 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
     // axes, whose parity bits pick the coset's tile of the texture.
     let (cosets, coset_formula, coset_mask) =
         match opts.layout {
-            Layout::Packed => {
+            Layout::Packed | Layout::BrickedPacked => {
                 let piv = coset_pivots(&d.filter.lattice)?;
                 let expr: Vec<String> =
                     piv.iter()
@@ -561,7 +571,11 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
         mapped => !map.is_identity(),
         sample_scale => lit_f32(map.scale),
         sample_offset => lit_f32(map.offset),
-        halo => if opts.layout == Layout::Bricked { bricks::brick_halo(d) } else { 0 },
+        halo => match opts.layout {
+            Layout::Bricked => bricks::brick_halo(d),
+            Layout::BrickedPacked => bricks::brick_halo(d).next_multiple_of(2),
+            _ => 0,
+        },
     };
     let source = tmpl.render(ctx).map_err(|e| Error::Spec { origin: "templates".into(), message: e.to_string() })?;
     let stats = EmitStats {
@@ -686,6 +700,7 @@ fn template_env() -> minijinja::Environment<'static> {
         ("fetch_embedded.wgsl.j2", include_str!("../../../templates/fetch_embedded.wgsl.j2")),
         ("fetch_packed.wgsl.j2", include_str!("../../../templates/fetch_packed.wgsl.j2")),
         ("fetch_bricked.wgsl.j2", include_str!("../../../templates/fetch_bricked.wgsl.j2")),
+        ("fetch_bricked-packed.wgsl.j2", include_str!("../../../templates/fetch_bricked-packed.wgsl.j2")),
         ("kernels.wgsl.j2", include_str!("../../../templates/kernels.wgsl.j2")),
     ] {
         env.add_template(n, src)

@@ -167,7 +167,7 @@ impl TargetEvaluator {
         let how = format!("the GLSL text compiled by the driver: {}", context.describe());
         let source = mains::glsl(lib, &t.filter, mains::GlslApi::OpenGl);
         let samples = match layout {
-            Layout::Bricked => {
+            Layout::Bricked | Layout::BrickedPacked => {
                 return Err(unsupported(t.target, Runner::Gl, "the OpenGL runner binds the embedded or packed layout"))
             }
             Layout::Embedded => GlSamples::Texture {

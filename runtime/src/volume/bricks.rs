@@ -61,14 +61,16 @@ pub struct BrickedVolume {
     pub pool: Vec<f32>,
     /// One page word per brick, x fastest ([`MISSING_PAGE`] when not resident).
     pub pages: Vec<u32>,
-    /// `<f>_bricks`: (volume size, B) and (bricks per axis, h).
+    /// `<f>_bricks`: (volume size or coset grid, B) and (bricks per axis, h).
     pub uniform: [i32; 8],
+    /// The pool's texels per axis when slots are not cubes (coset-packed).
+    pub pool_size: Option<[usize; 3]>,
 }
 
 impl BrickedVolume {
     /// Pool texels per axis.
     pub fn pool_size(&self) -> [usize; 3] {
-        self.slots.map(|s| s * self.shape.slot())
+        self.pool_size.unwrap_or(self.slots.map(|s| s * self.shape.slot()))
     }
 }
 
@@ -164,7 +166,87 @@ impl LatticeVolume {
             bricks[2] as i32,
             shape.halo as i32,
         ];
-        Ok(BrickedVolume { shape, bricks, slots, pool, pages, uniform })
+        Ok(BrickedVolume { shape, bricks, slots, pool, pages, uniform, pool_size: None })
+    }
+}
+
+impl LatticeVolume {
+    /// The bricked, coset-packed layout of every brick (in core): each slot
+    /// holds its brick's region (edge B + 2h, both even) as the packed layout
+    /// stores it, a tile of (B + 2h) / 2 grid points per axis for each coset
+    /// along the pivot axes, each grid point the packed layout's clamped one.
+    pub fn bricked_packed(&self, shape: BrickShape, max_edge: usize) -> Result<BrickedVolume, VolumeError> {
+        shape.check()?;
+        if !shape.edge.is_multiple_of(2) || !shape.halo.is_multiple_of(2) {
+            return Err(VolumeError::Bricks {
+                message: format!(
+                    "the bricked-packed layout needs an even brick edge and halo (got {} and {}); e.g. --brick 32",
+                    shape.edge, shape.halo
+                ),
+            });
+        }
+        let packed = self.packed()?;
+        let pivots = boxforge::emit::coset_pivots(&self.lattice)
+            .map_err(|e| VolumeError::Packed { lattice: self.lattice.name.clone(), message: e.to_string() })?;
+        let g = [packed.grid[0] as usize, packed.grid[1] as usize, packed.grid[2] as usize];
+        let mask: [usize; 3] = std::array::from_fn(|a| usize::from(pivots.contains(&a)));
+        let gs = shape.slot() / 2;
+        let extent: [usize; 3] = std::array::from_fn(|a| gs * (1 + mask[a]));
+        let bricks = self.dims.map(|n| n.div_ceil(shape.edge));
+        let nb = bricks[0] * bricks[1] * bricks[2];
+        let slots = slot_grid(nb, 2 * gs, max_edge).ok_or_else(|| VolumeError::Bricks {
+            message: format!(
+                "{nb} bricks of {}^3 texels do not fit in a pool texture of {max_edge} per edge; use a larger --brick or a smaller volume",
+                shape.slot()
+            ),
+        })?;
+        let size: [usize; 3] = std::array::from_fn(|a| slots[a] * extent[a]);
+        let texels = size[0] * size[1] * size[2];
+        if texels > i32::MAX as usize {
+            return Err(VolumeError::Bricks {
+                message: format!("a pool of {texels} texels is too large; use fewer or smaller bricks"),
+            });
+        }
+        let tex = packed.texture;
+        let mut pool = vec![0f32; texels];
+        let mut pages = vec![MISSING_PAGE; nb];
+        let (b, h) = (shape.edge as i64, shape.halo as i64);
+        for (i, page) in pages.iter_mut().enumerate() {
+            let k = [i % bricks[0], (i / bricks[0]) % bricks[1], i / (bricks[0] * bricks[1])];
+            let slot = [i % slots[0], (i / slots[0]) % slots[1], i / (slots[0] * slots[1])];
+            *page = page_word(&slot);
+            let origin: [i64; 3] = std::array::from_fn(|a| (k[a] as i64 * b - h) / 2);
+            for tile in 0..8usize {
+                let t = [tile & 1, (tile >> 1) & 1, (tile >> 2) & 1];
+                if (0..3).any(|a| t[a] > mask[a]) {
+                    continue;
+                }
+                for mz in 0..gs {
+                    for my in 0..gs {
+                        for mx in 0..gs {
+                            let m = [mx, my, mz];
+                            let src: [usize; 3] = std::array::from_fn(|a| {
+                                (origin[a] + m[a] as i64).clamp(0, g[a] as i64 - 1) as usize + t[a] * g[a]
+                            });
+                            let dst: [usize; 3] = std::array::from_fn(|a| slot[a] * extent[a] + t[a] * gs + m[a]);
+                            pool[dst[0] + size[0] * (dst[1] + size[1] * dst[2])] =
+                                packed.words[src[0] + tex[0] * (src[1] + tex[1] * src[2])];
+                        }
+                    }
+                }
+            }
+        }
+        let uniform = [
+            g[0] as i32,
+            g[1] as i32,
+            g[2] as i32,
+            shape.edge as i32,
+            bricks[0] as i32,
+            bricks[1] as i32,
+            bricks[2] as i32,
+            shape.halo as i32,
+        ];
+        Ok(BrickedVolume { shape, bricks, slots, pool, pages, uniform, pool_size: Some(size) })
     }
 }
 

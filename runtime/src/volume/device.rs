@@ -116,9 +116,16 @@ impl DeviceVolume {
                 dv.buffers.push(gpu.uniform_buffer("packed grid", bytemuck::cast_slice(&p.grid)));
                 dv.bytes = bytes.len();
             }
-            Layout::Bricked => {
+            Layout::Bricked | Layout::BrickedPacked => {
                 let max = options.max_pool_edge.unwrap_or(gpu.limits().max_texture_dimension_3d as usize);
-                let b = v.bricked(options.bricks, max).map_err(runtime)?;
+                let b = if layout == Layout::Bricked {
+                    v.bricked(options.bricks, max)
+                } else {
+                    // Coset-packed slots need an even halo (and edge).
+                    let shape = BrickShape { halo: options.bricks.halo.next_multiple_of(2), ..options.bricks };
+                    v.bricked_packed(shape, max)
+                }
+                .map_err(runtime)?;
                 let bytes = format.encode(&b.pool, map).map_err(runtime)?;
                 let size = b.pool_size().map(|n| n as u32);
                 dv.texture_view = Some(texture_3d(gpu, "brick pool", size, format.texture_format(), &bytes)?);
@@ -132,7 +139,7 @@ impl DeviceVolume {
                 )?);
                 dv.buffers.push(gpu.uniform_buffer("bricks", bytemuck::cast_slice(&b.uniform)));
                 dv.bytes = bytes.len() + b.pages.len() * 4;
-                dv.bricks = Some(options.bricks);
+                dv.bricks = Some(b.shape);
             }
         }
         Ok(dv)
@@ -148,7 +155,7 @@ impl DeviceVolume {
                 "fetch = linear needs hardware filtering of R32Float textures (FLOAT32_FILTERABLE), which this adapter lacks; use exact fetches".into(),
             ));
         }
-        if layout == Layout::Bricked {
+        if layout.is_bricked() {
             return Err(GpuError::Runtime(
                 "fetch = linear is not offered on the bricked layout; use exact fetches or the packed layout".into(),
             ));
@@ -205,7 +212,7 @@ impl DeviceVolume {
         match self.layout {
             Layout::Embedded => {}
             Layout::Packed => e.push(uniform(first + 1)),
-            Layout::Bricked => {
+            Layout::Bricked | Layout::BrickedPacked => {
                 e.push(uniform(first + 1));
                 e.push(wgpu::BindGroupLayoutEntry {
                     binding: first + 2,
@@ -234,7 +241,7 @@ impl DeviceVolume {
             Layout::Packed => {
                 e.push(wgpu::BindGroupEntry { binding: first + 1, resource: self.buffers[0].as_entire_binding() })
             }
-            Layout::Bricked => {
+            Layout::Bricked | Layout::BrickedPacked => {
                 e.push(wgpu::BindGroupEntry { binding: first + 1, resource: self.buffers[0].as_entire_binding() });
                 let pages = self.pages_view.as_ref().expect("the bricked layout uploads its page table");
                 e.push(wgpu::BindGroupEntry {

@@ -64,13 +64,23 @@ fn bricked_images_equal_the_in_core_images_for_every_filter() {
         let vol = LatticeVolume::marschner_lobb(&d.filter.lattice, [24, 24, 24]).unwrap();
         let o = RenderOptions { width: 40, height: 40, frames: 0, ..RenderOptions::default() };
         let in_core = render(gpu, &d, &vol, Layout::Embedded, &o).unwrap();
-        // Bricks of 4 texels (6^3 bricks), the pool 7 slots wide: the slots wrap.
-        let bricked = RenderOptions { volume: small_bricks(&d, 4, Some(7)), ..o.clone() };
-        let frame = render(gpu, &d, &vol, Layout::Bricked, &bricked).unwrap();
         let hits = in_core.rgba.chunks(4).filter(|p| is_hit(p)).count();
         assert!(hits > 100, "{name}: the surface is in view ({hits} pixels)");
+        // Bricks of 4 texels (6^3 bricks), the pool 7 slots wide: the slots
+        // wrap; as they are, and coset-packed (against the packed layout).
+        let bricked = RenderOptions { volume: small_bricks(&d, 4, Some(7)), ..o.clone() };
+        let frame = render(gpu, &d, &vol, Layout::Bricked, &bricked).unwrap();
         let (flips, rms) = compare(&in_core.rgba, &frame.rgba);
         assert!(flips == 0 && rms < 0.5, "{name}: bricked image differs ({flips} hit/miss flips, RMS {rms:.3}/255)");
+        let packed = render(gpu, &d, &vol, Layout::Packed, &o).unwrap();
+        // Coset-packed slots have an even halo: the same wrap with that slot.
+        let mut even = small_bricks(&d, 4, None);
+        even.bricks.halo = even.bricks.halo.next_multiple_of(2);
+        even.max_pool_edge = Some(7 * even.bricks.slot());
+        let bricked = RenderOptions { volume: even, ..o.clone() };
+        let frame = render(gpu, &d, &vol, Layout::BrickedPacked, &bricked).unwrap();
+        let (flips, rms) = compare(&packed.rgba, &frame.rgba);
+        assert!(flips == 0 && rms < 0.5, "{name}: bricked-packed image differs ({flips} flips, RMS {rms:.3}/255)");
     }
 }
 

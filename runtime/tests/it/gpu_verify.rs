@@ -1,5 +1,5 @@
 //! Device verification on lavapipe (or any Vulkan device): every 3D catalog
-//! filter, both layouts, fast variant; eval and eval_grad against the exact
+//! filter, every layout, fast variant; eval and eval_grad against the exact
 //! evaluator. Sizes are small enough for CI.
 
 use boxforge::derive::Derivation;
@@ -20,7 +20,9 @@ fn every_3d_catalog_filter_matches_the_exact_evaluator_on_the_device() {
         if d.facts.dim != 3 {
             continue;
         }
-        for layout in [Layout::Embedded, Layout::Packed] {
+        // The bricked layouts in bricks of 4 (`verify::VERIFY_BRICK_EDGE`),
+        // with as many points again on the brick faces.
+        for layout in [Layout::Embedded, Layout::Packed, Layout::Bricked, Layout::BrickedPacked] {
             let r = verify(gpu, &d, layout, Variant::Fast, 3000, 7).unwrap();
             eprintln!("{name} {layout:?}: value {:.2e} grad {:.2e}", r.max_abs_err, r.max_rel_grad_err);
             if !r.passed {

@@ -31,6 +31,7 @@ fn catalog_modules() -> Vec<(String, String)> {
                         (Layout::Embedded, FetchMode::Exact),
                         (Layout::Packed, FetchMode::Exact),
                         (Layout::Bricked, FetchMode::Exact),
+                        (Layout::BrickedPacked, FetchMode::Exact),
                     ];
                     if d.factorisation().is_some_and(|f| f.supports_linear_fetch()) {
                         jobs.push((Layout::Embedded, FetchMode::Linear));

@@ -23,7 +23,7 @@ fn catalog_modules_validate_and_fast_ones_are_branch_free() {
                     boxforge::emit::Variant::Fast => {
                         proof.unwrap_or_else(|err| panic!("{}: {err}", e.file_name));
                         // Bricked: one page-table load per evaluation, not per fetch.
-                        let pages = usize::from(layout == boxforge::emit::Layout::Bricked);
+                        let pages = usize::from(layout.is_bricked());
                         for f in [&eval, &grad] {
                             let loads = r.function(f).unwrap().total_loads;
                             assert_eq!(loads, e.stats.fetches_per_eval + pages, "{}: {f} loads", e.file_name);

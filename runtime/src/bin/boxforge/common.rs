@@ -48,6 +48,8 @@ pub enum LayoutArg {
     /// Bricks of --brick texels with halos in a pool texture, one page-table
     /// lookup per evaluation (volumes past the 3D texture limit).
     Bricked,
+    /// The same bricks with each slot coset-packed (one texel per sample).
+    BrickedPacked,
 }
 
 impl From<LayoutArg> for Layout {
@@ -56,6 +58,7 @@ impl From<LayoutArg> for Layout {
             LayoutArg::Embedded => Layout::Embedded,
             LayoutArg::Packed => Layout::Packed,
             LayoutArg::Bricked => Layout::Bricked,
+            LayoutArg::BrickedPacked => Layout::BrickedPacked,
         }
     }
 }

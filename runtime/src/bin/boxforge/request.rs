@@ -237,7 +237,7 @@ pub fn volume_over_limits(vol: &LatticeVolume, layout: Layout, limits: &wgpu::Li
         // No packed layout: DeviceVolume::new says why.
         Layout::Packed => vol.packed_texture_size()?,
         // Bricks refold into a pool that fits; the pool's own refusal says why not.
-        Layout::Bricked => return None,
+        Layout::Bricked | Layout::BrickedPacked => return None,
     };
     limits::check_volume_limits(vol.dims, texture, layout, limits).err().map(|e| device_limit(&e))
 }
@@ -320,7 +320,7 @@ pub fn perm_failure(e: &PermError) -> String {
 /// `--brick`: only with `--layout bricked`, and an edge of 2 to 1024 texels.
 pub fn check_brick(brick: Option<usize>, layout: Layout) -> Result<(), String> {
     match brick {
-        Some(_) if layout != Layout::Bricked => {
+        Some(_) if !layout.is_bricked() => {
             Err("--brick sizes the bricks of the bricked layout: add --layout bricked, or drop --brick".into())
         }
         Some(b) if !(2..=1024).contains(&b) => {

@@ -308,7 +308,7 @@ pub fn run(a: RenderArgs) -> Result<(), Failure> {
         },
         max_pool_edge: None,
     };
-    let custom_volume = format != boxforge_runtime::volume::SampleFormat::F32 || layout == Layout::Bricked;
+    let custom_volume = format != boxforge_runtime::volume::SampleFormat::F32 || layout.is_bricked();
     if custom_volume && (scheme.is_some() || pt) {
         return Err(Failure(
             "--format and --layout bricked store the samples of the spline ray casters (iso, DVR, PERM); the schemes and --renderer pt read f32 embedded samples: drop them or use the ray casters".into(),
