@@ -214,6 +214,33 @@ pub fn markdown(r: &VolumesReport, command: &str) -> String {
             );
         }
         let _ = writeln!(s);
+        let _ = writeln!(
+            s,
+            "**Past one device, on paper** (sort-last, as IceT composites): cut the brick grid into N boxes, one per GPU (each with the halo bricks of its neighbours, 2h/B of a brick more per face), let each GPU render the rays' segments through its box out of core as above, and composite: for isosurfaces the nearest hit per pixel (colour + f32 depth, 8 bytes a pixel), for DVR the partial images in visibility order. Binary-swap compositing moves about 8 W H bytes per GPU per frame in log2 N rounds, 0.5 MiB at 256x256, small beside the bricks each GPU uploads. What the single-device rows imply:\n"
+        );
+        for row in &r.out_of_core {
+            let st = &row.stats;
+            let uploads = st["first"]["uploads"].as_u64().unwrap_or(0);
+            let slots = st["first"]["slots"].as_u64().unwrap_or(1).max(1);
+            let device = st["first"]["device_bytes"].as_u64().unwrap_or(0);
+            let slot_bytes = device as f64 / slots as f64;
+            let working = uploads as f64 * slot_bytes;
+            let gpus = (working / (row.budget as f64 * 0.9)).ceil().max(1.0);
+            let _ = writeln!(
+                s,
+                "- {} on {} at {}: the first frame's working set is {} bricks, about {} of slots; {} such GPUs would each hold their share resident (no pass after the first), and each would read about 1/{} of the bricks and bound 1/{} of the blocks (the bounds took {:.0} s here).",
+                row.filter,
+                row.volume,
+                mib(row.budget),
+                uploads,
+                mib(working as u64),
+                gpus,
+                gpus,
+                gpus,
+                num(st, &["preprocess_ms"]) / 1e3
+            );
+        }
+        let _ = writeln!(s);
     }
     let _ = writeln!(s, "{SECTION_END}");
     s
