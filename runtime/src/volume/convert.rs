@@ -9,13 +9,13 @@ use boxforge::spec::lattice::Lattice;
 /// Lattice membership in a box, through one period of the lattice: p_i e_i is
 /// in L for the per-axis periods p_i (which divide |det G|), so membership of j
 /// only depends on j mod p.
-struct Membership {
+pub(super) struct Membership {
     period: [usize; 3],
     table: Vec<bool>,
 }
 
 impl Membership {
-    fn new(lattice: &Lattice) -> Result<Membership, VolumeError> {
+    pub(super) fn new(lattice: &Lattice) -> Result<Membership, VolumeError> {
         if lattice.dim() != 3 {
             return Err(VolumeError::LatticeDim { lattice: lattice.name.clone(), dim: lattice.dim() });
         }
@@ -51,7 +51,12 @@ impl Membership {
         Ok(Membership { period, table })
     }
 
-    fn contains(&self, j: [usize; 3]) -> bool {
+    /// Bytes of the table (one bool per residue class).
+    pub(super) fn table_bytes(&self) -> usize {
+        self.table.len()
+    }
+
+    pub(super) fn contains(&self, j: [usize; 3]) -> bool {
         let p = self.period;
         self.table[j[0] % p[0] + p[0] * ((j[1] % p[1]) + p[1] * (j[2] % p[2]))]
     }

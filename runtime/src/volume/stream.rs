@@ -9,6 +9,7 @@
 //! do (NIfTI: `raw as f32 * scl_slope + scl_inter` when `scl_slope != 0`,
 //! the `nifti` crate's rule).
 
+use super::convert::Membership;
 use super::error::checked_count;
 use super::source::check_box_len;
 use super::{parse_raw_spec, BrickSource, RawType, VolumeError};
@@ -199,57 +200,6 @@ fn decode(ty: Sample, big_endian: bool, scale: Option<(f32, f32)>, src: &[u8], d
         for d in dst.iter_mut() {
             *d = *d * slope + inter;
         }
-    }
-}
-
-/// Lattice membership through one period of the lattice (as the in-memory
-/// conversion computes it): p_a e_a is in L for per-axis periods p_a
-/// dividing |det G|, so membership of j only depends on j mod p.
-struct Membership {
-    period: [usize; 3],
-    table: Vec<bool>,
-}
-
-impl Membership {
-    fn new(lattice: &Lattice) -> Result<Membership, VolumeError> {
-        if lattice.dim() != 3 {
-            return Err(VolumeError::LatticeDim { lattice: lattice.name.clone(), dim: lattice.dim() });
-        }
-        let det = lattice.det().max(1);
-        let mut period = [1usize; 3];
-        for (a, p) in period.iter_mut().enumerate() {
-            let mut e = [0i64; 3];
-            *p = (1..=det)
-                .find(|&k| {
-                    e[a] = k;
-                    lattice.contains(&e)
-                })
-                .unwrap_or(det) as usize;
-        }
-        let size = period[0].saturating_mul(period[1]).saturating_mul(period[2]);
-        if size > 1 << 24 {
-            return Err(VolumeError::Packed {
-                lattice: lattice.name.clone(),
-                message: format!(
-                    "its period box {period:?} is too large for a volume; use a lattice with a smaller determinant"
-                ),
-            });
-        }
-        let table = (0..size)
-            .map(|idx| {
-                lattice.contains(&[
-                    (idx % period[0]) as i64,
-                    ((idx / period[0]) % period[1]) as i64,
-                    (idx / (period[0] * period[1])) as i64,
-                ])
-            })
-            .collect();
-        Ok(Membership { period, table })
-    }
-
-    fn contains(&self, j: [usize; 3]) -> bool {
-        let p = self.period;
-        self.table[j[0] % p[0] + p[0] * ((j[1] % p[1]) + p[1] * (j[2] % p[2]))]
     }
 }
 
@@ -787,7 +737,7 @@ impl BrickSource for MappedVolume {
 
     fn resident_bytes(&self) -> usize {
         std::mem::size_of::<Self>()
-            + self.member.table.len()
+            + self.member.table_bytes()
             + self.path.as_os_str().len()
             + self.source.as_os_str().len()
     }
