@@ -226,17 +226,19 @@ pub fn markdown(r: &VolumesReport, command: &str) -> String {
             let slot_bytes = device as f64 / slots as f64;
             let working = uploads as f64 * slot_bytes;
             let gpus = (working / (row.budget as f64 * 0.9)).ceil().max(1.0);
+            let share = if gpus <= 1.0 {
+                "one GPU of this budget holds it resident: more GPUs would only split the bounding".to_string()
+            } else {
+                format!("{gpus} GPUs of this budget would hold it resident between them (each reading and bounding about 1/{gpus} of the bricks)")
+            };
             let _ = writeln!(
                 s,
-                "- {} on {} at {}: the first frame's working set is {} bricks, about {} of slots; {} such GPUs would each hold their share resident (no pass after the first), and each would read about 1/{} of the bricks and bound 1/{} of the blocks (the bounds took {:.0} s here).",
+                "- {} on {} at {}: the first frame's working set is {} bricks, about {} of slots; {share}; bounding the blocks took {:.0} s here, which N GPUs would share.",
                 row.filter,
                 row.volume,
                 mib(row.budget),
                 uploads,
                 mib(working as u64),
-                gpus,
-                gpus,
-                gpus,
                 num(st, &["preprocess_ms"]) / 1e3
             );
         }
