@@ -82,8 +82,14 @@ impl DeviceVolume {
                 "sample format u16 needs R16Unorm textures (TEXTURE_FORMAT_16BIT_NORM), which this adapter lacks; use --format f16, u8 or f32".into(),
             ));
         }
-        let (lo, hi) = v.sample_range();
-        let map = format.map_for(lo, hi);
+        // Only the normalized formats need the range (a pass over every sample).
+        let map = match format {
+            SampleFormat::U8 | SampleFormat::U16 => {
+                let (lo, hi) = v.sample_range();
+                format.map_for(lo, hi)
+            }
+            SampleFormat::F32 | SampleFormat::F16 => SampleMap::IDENTITY,
+        };
         let mut dv = DeviceVolume {
             layout,
             texture_view: None,

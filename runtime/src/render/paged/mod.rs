@@ -208,9 +208,15 @@ impl PagedIsoRenderer {
             }
         };
         mem("start");
-        let (lo, hi) = source.sample_range().map_err(|e| fail(e.to_string()))?;
+        // Only the normalized formats need the range (a pass over the source).
+        let map = match format {
+            SampleFormat::U8 | SampleFormat::U16 => {
+                let (lo, hi) = source.sample_range().map_err(|e| fail(e.to_string()))?;
+                format.map_for(lo, hi)
+            }
+            SampleFormat::F32 | SampleFormat::F16 => boxforge::emit::SampleMap::IDENTITY,
+        };
         mem("range");
-        let map = format.map_for(lo, hi);
         // Preprocessing: a slab texture of at most a quarter of the budget
         // on the device (destroyed before the pool is allocated), filled one row of
         // bricks at a time from the host. Few large dispatches also matter
