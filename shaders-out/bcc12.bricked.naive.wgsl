@@ -2,7 +2,7 @@
 // boxforge filter `bcc12` on the bcc lattice (3D), layout `bricked`, variant `naive`.
 // Point location: fold + sorting network + plane tests. Fetches per eval: 128. Vector adds for fetch positions: 129 (a matrix-vector product per fetch: 384).
 // Evaluation form: dense (static ops eval/eval_grad of each form: dense 234/788). Fetch bounds: clamp.
-// Entry functions: bcc12_fetch, bcc12_eval, bcc12_eval_grad, bcc12_prefilter_main, bcc12_minmax_main.
+// Entry functions: bcc12_fetch, bcc12_eval, bcc12_eval_grad, bcc12_eval_hessian (form dense), bcc12_prefilter_main, bcc12_minmax_main.
 
 // Bricked layout: the lattice texels cut into bricks of B^3, each held in a
 // slot of the pool texture with a halo of h texels on every side (h is at
@@ -271,6 +271,14 @@ fn bcc12_cube_bounds(z: vec3<i32>) -> vec2<f32> {
     return vec2<f32>(lo_201, hi_202);
 }
 
+/// Value, gradient and Hessian (symmetric, d2/dp_i dp_j in column j, row i)
+/// from one set of fetches.
+struct bcc12_Hessian {
+    value: f32,
+    gradient: vec3<f32>,
+    hessian: mat3x3<f32>,
+}
+
 /// The spline at p (lattice coordinates embedded in Z^3).
 fn bcc12_eval(p: vec3<f32>) -> f32 {
     let brick_page = bcc12_page(p);
@@ -372,6 +380,260 @@ fn bcc12_eval_grad(p: vec3<f32>) -> vec4<f32> {
     let gw_18 = vec3<f32>(g_17.x, g_17.y, g_17.z);
     let gx_19 = vec3<f32>(m_5) * gw_18.x + vec3<f32>(m_6) * gw_18.y + vec3<f32>(m_7) * gw_18.z;
     return vec4<f32>(v_16, gx_19);
+}
+
+/// Value, gradient and Hessian from the same fetches.
+fn bcc12_eval_hessian(p: vec3<f32>) -> bcc12_Hessian {
+    let brick_page = bcc12_page(p);
+    let c_0 = 2.0 * round(p * 0.5);
+    let d_1 = p - c_0;
+    let sg_2 = select(vec3<i32>(-1), vec3<i32>(1), d_1 >= vec3<f32>(0.0));
+    let base_3 = vec3<i32>(c_0);
+    var w_4 = abs(d_1);
+    var m_5 = vec3<i32>(sg_2.x, 0, 0);
+    var m_6 = vec3<i32>(0, sg_2.y, 0);
+    var m_7 = vec3<i32>(0, 0, sg_2.z);
+    if (w_4.x < w_4.y) {
+        w_4 = w_4.yxz;
+        let t = m_5;
+        m_5 = m_6;
+        m_6 = t;
+    }
+    if (w_4.y < w_4.z) {
+        w_4 = w_4.xzy;
+        let t = m_6;
+        m_6 = m_7;
+        m_7 = t;
+    }
+    if (w_4.x < w_4.y) {
+        w_4 = w_4.yxz;
+        let t = m_5;
+        m_5 = m_6;
+        m_6 = t;
+    }
+    var f: array<f32, 128>;
+    for (var k = 0; k < 128; k++) {
+        let q = bcc12_OFFSETS[0 * 128 + k];
+        f[k] = bcc12_fetch_in(brick_page, base_3 + m_5 * q.x + m_6 * q.y + m_7 * q.z);
+    }
+    var bt_8 = array<f32, 64>();
+    for (var e = 0; e < 5824; e++) {
+        let t = bcc12_W0[e];
+        bt_8[i32(t.x)] += t.z * f[i32(t.y)];
+    }
+    let u_9 = vec3<f32>(w_4.x, w_4.y, w_4.z);
+    let h_10 = bt_8[19] * u_9.z + bt_8[9];
+    let h_11 = bt_8[19] + bt_8[19];
+    let h_12 = bt_8[19] * u_9.z + h_10;
+    let h_13 = h_10 * u_9.z + bt_8[3];
+    let h_14 = h_11 * u_9.z + h_12 + h_12;
+    let h_15 = h_12 * u_9.z + h_13;
+    let h_16 = h_13 * u_9.z + bt_8[0];
+    let h_17 = bt_8[31] * u_9.z + bt_8[18];
+    let h_18 = bt_8[31] + bt_8[31];
+    let h_19 = bt_8[31] * u_9.z + h_17;
+    let h_20 = h_17 * u_9.z + bt_8[8];
+    let h_21 = h_18 * u_9.z + h_19 + h_19;
+    let h_22 = h_19 * u_9.z + h_20;
+    let h_23 = h_20 * u_9.z + bt_8[2];
+    let h_24 = bt_8[43] * u_9.z + bt_8[30];
+    let h_25 = bt_8[43] + bt_8[43];
+    let h_26 = bt_8[43] * u_9.z + h_24;
+    let h_27 = h_24 * u_9.z + bt_8[17];
+    let h_28 = h_25 * u_9.z + h_26 + h_26;
+    let h_29 = h_26 * u_9.z + h_27;
+    let h_30 = h_27 * u_9.z + bt_8[7];
+    let h_31 = bt_8[53] * u_9.z + bt_8[42];
+    let h_32 = bt_8[53] + bt_8[53];
+    let h_33 = bt_8[53] * u_9.z + h_31;
+    let h_34 = h_31 * u_9.z + bt_8[29];
+    let h_35 = h_32 * u_9.z + h_33 + h_33;
+    let h_36 = h_33 * u_9.z + h_34;
+    let h_37 = h_34 * u_9.z + bt_8[16];
+    let h_38 = h_35 * u_9.y + h_28;
+    let h_39 = h_36 * u_9.y + h_29;
+    let h_40 = h_37 * u_9.y + h_30;
+    let h_41 = h_37 + h_37;
+    let h_42 = h_36 * u_9.y + h_39;
+    let h_43 = h_38 * u_9.y + h_21;
+    let h_44 = h_37 * u_9.y + h_40;
+    let h_45 = h_39 * u_9.y + h_22;
+    let h_46 = h_40 * u_9.y + h_23;
+    let h_47 = h_41 * u_9.y + h_44 + h_44;
+    let h_48 = h_42 * u_9.y + h_45;
+    let h_49 = h_43 * u_9.y + h_14;
+    let h_50 = h_44 * u_9.y + h_46;
+    let h_51 = h_45 * u_9.y + h_15;
+    let h_52 = h_46 * u_9.y + h_16;
+    let h_53 = bt_8[28] * u_9.z + bt_8[15];
+    let h_54 = bt_8[28] + bt_8[28];
+    let h_55 = bt_8[28] * u_9.z + h_53;
+    let h_56 = h_53 * u_9.z + bt_8[6];
+    let h_57 = h_54 * u_9.z + h_55 + h_55;
+    let h_58 = h_55 * u_9.z + h_56;
+    let h_59 = h_56 * u_9.z + bt_8[1];
+    let h_60 = bt_8[41] * u_9.z + bt_8[27];
+    let h_61 = bt_8[41] + bt_8[41];
+    let h_62 = bt_8[41] * u_9.z + h_60;
+    let h_63 = h_60 * u_9.z + bt_8[14];
+    let h_64 = h_61 * u_9.z + h_62 + h_62;
+    let h_65 = h_62 * u_9.z + h_63;
+    let h_66 = h_63 * u_9.z + bt_8[5];
+    let h_67 = bt_8[52] * u_9.z + bt_8[40];
+    let h_68 = bt_8[52] + bt_8[52];
+    let h_69 = bt_8[52] * u_9.z + h_67;
+    let h_70 = h_67 * u_9.z + bt_8[26];
+    let h_71 = h_68 * u_9.z + h_69 + h_69;
+    let h_72 = h_69 * u_9.z + h_70;
+    let h_73 = h_70 * u_9.z + bt_8[13];
+    let h_74 = bt_8[59] * u_9.z + bt_8[51];
+    let h_75 = bt_8[59] + bt_8[59];
+    let h_76 = bt_8[59] * u_9.z + h_74;
+    let h_77 = h_74 * u_9.z + bt_8[39];
+    let h_78 = h_75 * u_9.z + h_76 + h_76;
+    let h_79 = h_76 * u_9.z + h_77;
+    let h_80 = h_77 * u_9.z + bt_8[25];
+    let h_81 = h_78 * u_9.y + h_71;
+    let h_82 = h_79 * u_9.y + h_72;
+    let h_83 = h_80 * u_9.y + h_73;
+    let h_84 = h_80 + h_80;
+    let h_85 = h_79 * u_9.y + h_82;
+    let h_86 = h_81 * u_9.y + h_64;
+    let h_87 = h_80 * u_9.y + h_83;
+    let h_88 = h_82 * u_9.y + h_65;
+    let h_89 = h_83 * u_9.y + h_66;
+    let h_90 = h_84 * u_9.y + h_87 + h_87;
+    let h_91 = h_85 * u_9.y + h_88;
+    let h_92 = h_86 * u_9.y + h_57;
+    let h_93 = h_87 * u_9.y + h_89;
+    let h_94 = h_88 * u_9.y + h_58;
+    let h_95 = h_89 * u_9.y + h_59;
+    let h_96 = bt_8[38] * u_9.z + bt_8[24];
+    let h_97 = bt_8[38] + bt_8[38];
+    let h_98 = bt_8[38] * u_9.z + h_96;
+    let h_99 = h_96 * u_9.z + bt_8[12];
+    let h_100 = h_97 * u_9.z + h_98 + h_98;
+    let h_101 = h_98 * u_9.z + h_99;
+    let h_102 = h_99 * u_9.z + bt_8[4];
+    let h_103 = bt_8[50] * u_9.z + bt_8[37];
+    let h_104 = bt_8[50] + bt_8[50];
+    let h_105 = bt_8[50] * u_9.z + h_103;
+    let h_106 = h_103 * u_9.z + bt_8[23];
+    let h_107 = h_104 * u_9.z + h_105 + h_105;
+    let h_108 = h_105 * u_9.z + h_106;
+    let h_109 = h_106 * u_9.z + bt_8[11];
+    let h_110 = bt_8[58] * u_9.z + bt_8[49];
+    let h_111 = bt_8[58] + bt_8[58];
+    let h_112 = bt_8[58] * u_9.z + h_110;
+    let h_113 = h_110 * u_9.z + bt_8[36];
+    let h_114 = h_111 * u_9.z + h_112 + h_112;
+    let h_115 = h_112 * u_9.z + h_113;
+    let h_116 = h_113 * u_9.z + bt_8[22];
+    let h_117 = bt_8[62] * u_9.z + bt_8[57];
+    let h_118 = bt_8[62] + bt_8[62];
+    let h_119 = bt_8[62] * u_9.z + h_117;
+    let h_120 = h_117 * u_9.z + bt_8[48];
+    let h_121 = h_118 * u_9.z + h_119 + h_119;
+    let h_122 = h_119 * u_9.z + h_120;
+    let h_123 = h_120 * u_9.z + bt_8[35];
+    let h_124 = h_121 * u_9.y + h_114;
+    let h_125 = h_122 * u_9.y + h_115;
+    let h_126 = h_123 * u_9.y + h_116;
+    let h_127 = h_123 + h_123;
+    let h_128 = h_122 * u_9.y + h_125;
+    let h_129 = h_124 * u_9.y + h_107;
+    let h_130 = h_123 * u_9.y + h_126;
+    let h_131 = h_125 * u_9.y + h_108;
+    let h_132 = h_126 * u_9.y + h_109;
+    let h_133 = h_127 * u_9.y + h_130 + h_130;
+    let h_134 = h_128 * u_9.y + h_131;
+    let h_135 = h_129 * u_9.y + h_100;
+    let h_136 = h_130 * u_9.y + h_132;
+    let h_137 = h_131 * u_9.y + h_101;
+    let h_138 = h_132 * u_9.y + h_102;
+    let h_139 = bt_8[47] * u_9.z + bt_8[34];
+    let h_140 = bt_8[47] + bt_8[47];
+    let h_141 = bt_8[47] * u_9.z + h_139;
+    let h_142 = h_139 * u_9.z + bt_8[21];
+    let h_143 = h_140 * u_9.z + h_141 + h_141;
+    let h_144 = h_141 * u_9.z + h_142;
+    let h_145 = h_142 * u_9.z + bt_8[10];
+    let h_146 = bt_8[56] * u_9.z + bt_8[46];
+    let h_147 = bt_8[56] + bt_8[56];
+    let h_148 = bt_8[56] * u_9.z + h_146;
+    let h_149 = h_146 * u_9.z + bt_8[33];
+    let h_150 = h_147 * u_9.z + h_148 + h_148;
+    let h_151 = h_148 * u_9.z + h_149;
+    let h_152 = h_149 * u_9.z + bt_8[20];
+    let h_153 = bt_8[61] * u_9.z + bt_8[55];
+    let h_154 = bt_8[61] + bt_8[61];
+    let h_155 = bt_8[61] * u_9.z + h_153;
+    let h_156 = h_153 * u_9.z + bt_8[45];
+    let h_157 = h_154 * u_9.z + h_155 + h_155;
+    let h_158 = h_155 * u_9.z + h_156;
+    let h_159 = h_156 * u_9.z + bt_8[32];
+    let h_160 = bt_8[63] * u_9.z + bt_8[60];
+    let h_161 = bt_8[63] + bt_8[63];
+    let h_162 = bt_8[63] * u_9.z + h_160;
+    let h_163 = h_160 * u_9.z + bt_8[54];
+    let h_164 = h_161 * u_9.z + h_162 + h_162;
+    let h_165 = h_162 * u_9.z + h_163;
+    let h_166 = h_163 * u_9.z + bt_8[44];
+    let h_167 = h_164 * u_9.y + h_157;
+    let h_168 = h_165 * u_9.y + h_158;
+    let h_169 = h_166 * u_9.y + h_159;
+    let h_170 = h_166 + h_166;
+    let h_171 = h_165 * u_9.y + h_168;
+    let h_172 = h_167 * u_9.y + h_150;
+    let h_173 = h_166 * u_9.y + h_169;
+    let h_174 = h_168 * u_9.y + h_151;
+    let h_175 = h_169 * u_9.y + h_152;
+    let h_176 = h_170 * u_9.y + h_173 + h_173;
+    let h_177 = h_171 * u_9.y + h_174;
+    let h_178 = h_172 * u_9.y + h_143;
+    let h_179 = h_173 * u_9.y + h_175;
+    let h_180 = h_174 * u_9.y + h_144;
+    let h_181 = h_175 * u_9.y + h_145;
+    let h_182 = h_176 * u_9.x + h_133;
+    let h_183 = h_177 * u_9.x + h_134;
+    let h_184 = h_178 * u_9.x + h_135;
+    let h_185 = h_179 * u_9.x + h_136;
+    let h_186 = h_180 * u_9.x + h_137;
+    let h_187 = h_181 * u_9.x + h_138;
+    let h_188 = h_181 + h_181;
+    let h_189 = h_179 * u_9.x + h_185;
+    let h_190 = h_180 * u_9.x + h_186;
+    let h_191 = h_182 * u_9.x + h_90;
+    let h_192 = h_183 * u_9.x + h_91;
+    let h_193 = h_184 * u_9.x + h_92;
+    let h_194 = h_181 * u_9.x + h_187;
+    let h_195 = h_185 * u_9.x + h_93;
+    let h_196 = h_186 * u_9.x + h_94;
+    let h_197 = h_187 * u_9.x + h_95;
+    let h_198 = h_188 * u_9.x + h_194 + h_194;
+    let h_199 = h_189 * u_9.x + h_195;
+    let h_200 = h_190 * u_9.x + h_196;
+    let h_201 = h_191 * u_9.x + h_47;
+    let h_202 = h_192 * u_9.x + h_48;
+    let h_203 = h_193 * u_9.x + h_49;
+    let h_204 = h_194 * u_9.x + h_197;
+    let h_205 = h_195 * u_9.x + h_50;
+    let h_206 = h_196 * u_9.x + h_51;
+    let h_207 = h_197 * u_9.x + h_52;
+    let v_208 = h_207;
+    let g_209 = vec3<f32>(h_204, h_205, h_206);
+    let gw_210 = vec3<f32>(g_209.x, g_209.y, g_209.z);
+    let gx_211 = vec3<f32>(m_5) * gw_210.x + vec3<f32>(m_6) * gw_210.y + vec3<f32>(m_7) * gw_210.z;
+    let hc_212 = vec3<f32>(h_198, h_199, h_200);
+    let hc_213 = vec3<f32>(h_199, h_201, h_202);
+    let hc_214 = vec3<f32>(h_200, h_202, h_203);
+    let hw_215 = vec3<f32>(hc_212.x, hc_212.y, hc_212.z);
+    let hw_216 = vec3<f32>(hc_213.x, hc_213.y, hc_213.z);
+    let hw_217 = vec3<f32>(hc_214.x, hc_214.y, hc_214.z);
+    let hm_218 = mat3x3<f32>(hw_215, hw_216, hw_217);
+    let mf_219 = mat3x3<f32>(vec3<f32>(m_5), vec3<f32>(m_6), vec3<f32>(m_7));
+    let hx_220 = mf_219 * hm_218 * transpose(mf_219);
+    return bcc12_Hessian(v_208, gx_211, hx_220);
 }
 // Kernels. Bindings for the outputs follow the sample bindings.
 @group(0) @binding(3) var<storage, read_write> bcc12_out: array<f32>;

@@ -2,7 +2,7 @@
 // boxforge filter `bcc7` on the bcc lattice (3D), layout `packed`, variant `naive`.
 // Point location: fold + sorting network + plane tests. Fetches per eval: 30. Vector adds for fetch positions: 33 (a matrix-vector product per fetch: 90).
 // Evaluation form: dense (static ops eval/eval_grad of each form: dense 270/279). Fetch bounds: clamp.
-// Entry functions: bcc7_fetch, bcc7_eval, bcc7_eval_grad, bcc7_prefilter_main, bcc7_minmax_main.
+// Entry functions: bcc7_fetch, bcc7_eval, bcc7_eval_grad, bcc7_eval_hessian (form dense), bcc7_prefilter_main, bcc7_minmax_main.
 
 // Coset-packed layout: one word per sample, the cosets of 2Z^3 in the
 // lattice (2 cosets) tiled in one r32float texture. Sample j lives in
@@ -319,6 +319,14 @@ fn bcc7_cube_bounds(z: vec3<i32>) -> vec2<f32> {
     return vec2<f32>(lo_269, hi_270);
 }
 
+/// Value, gradient and Hessian (symmetric, d2/dp_i dp_j in column j, row i)
+/// from one set of fetches.
+struct bcc7_Hessian {
+    value: f32,
+    gradient: vec3<f32>,
+    hessian: mat3x3<f32>,
+}
+
 /// The spline at p (lattice coordinates embedded in Z^3).
 fn bcc7_eval(p: vec3<f32>) -> f32 {
     let c_0 = 2.0 * round(p * 0.5);
@@ -482,6 +490,117 @@ fn bcc7_eval_grad(p: vec3<f32>) -> vec4<f32> {
     let gw_50 = vec3<f32>(-g_49.x, -g_49.y, -g_49.z);
     let gx_51 = vec3<f32>(m_5) * gw_50.x + vec3<f32>(m_6) * gw_50.y + vec3<f32>(m_7) * gw_50.z;
     return vec4<f32>(v_48, gx_51);
+}
+
+/// Value, gradient and Hessian from the same fetches.
+fn bcc7_eval_hessian(p: vec3<f32>) -> bcc7_Hessian {
+    let c_0 = 2.0 * round(p * 0.5);
+    let d_1 = p - c_0;
+    let sg_2 = select(vec3<i32>(-1), vec3<i32>(1), d_1 >= vec3<f32>(0.0));
+    let base_3 = vec3<i32>(c_0);
+    var w_4 = abs(d_1);
+    var m_5 = vec3<i32>(sg_2.x, 0, 0);
+    var m_6 = vec3<i32>(0, sg_2.y, 0);
+    var m_7 = vec3<i32>(0, 0, sg_2.z);
+    if (w_4.x < w_4.y) {
+        w_4 = w_4.yxz;
+        let t = m_5;
+        m_5 = m_6;
+        m_6 = t;
+    }
+    if (w_4.y < w_4.z) {
+        w_4 = w_4.xzy;
+        let t = m_6;
+        m_6 = m_7;
+        m_7 = t;
+    }
+    if (w_4.x < w_4.y) {
+        w_4 = w_4.yxz;
+        let t = m_5;
+        m_5 = m_6;
+        m_6 = t;
+    }
+    var f: array<f32, 30>;
+    for (var k = 0; k < 30; k++) {
+        let q = bcc7_OFFSETS[0 * 30 + k];
+        f[k] = bcc7_fetch(base_3 + m_5 * q.x + m_6 * q.y + m_7 * q.z);
+    }
+    var bt_8 = array<f32, 35>();
+    for (var e = 0; e < 498; e++) {
+        let t = bcc7_W0[e];
+        bt_8[i32(t.x)] += t.z * f[i32(t.y)];
+    }
+    let u_9 = vec3<f32>(-w_4.x, -w_4.y, -w_4.z) + vec3<f32>(1.0, 1.0, 1.0);
+    let l_10 = -u_9.z + 1.0;
+    let l_11 = -u_9.y + u_9.z;
+    let l_12 = -u_9.x + u_9.y;
+    let l_13 = u_9.x;
+    let dc_14 = l_10 * bt_8[0] + l_11 * bt_8[1] + l_12 * bt_8[2] + l_13 * bt_8[3];
+    let dc_15 = l_10 * bt_8[1] + l_11 * bt_8[4] + l_12 * bt_8[5] + l_13 * bt_8[6];
+    let dc_16 = l_10 * bt_8[2] + l_11 * bt_8[5] + l_12 * bt_8[7] + l_13 * bt_8[8];
+    let dc_17 = l_10 * bt_8[3] + l_11 * bt_8[6] + l_12 * bt_8[8] + l_13 * bt_8[9];
+    let dc_18 = l_10 * bt_8[4] + l_11 * bt_8[10] + l_12 * bt_8[11] + l_13 * bt_8[12];
+    let dc_19 = l_10 * bt_8[5] + l_11 * bt_8[11] + l_12 * bt_8[13] + l_13 * bt_8[14];
+    let dc_20 = l_10 * bt_8[6] + l_11 * bt_8[12] + l_12 * bt_8[14] + l_13 * bt_8[15];
+    let dc_21 = l_10 * bt_8[7] + l_11 * bt_8[13] + l_12 * bt_8[16] + l_13 * bt_8[17];
+    let dc_22 = l_10 * bt_8[8] + l_11 * bt_8[14] + l_12 * bt_8[17] + l_13 * bt_8[18];
+    let dc_23 = l_10 * bt_8[9] + l_11 * bt_8[15] + l_12 * bt_8[18] + l_13 * bt_8[19];
+    let dc_24 = l_10 * bt_8[10] + l_11 * bt_8[20] + l_12 * bt_8[21] + l_13 * bt_8[22];
+    let dc_25 = l_10 * bt_8[11] + l_11 * bt_8[21] + l_12 * bt_8[23] + l_13 * bt_8[24];
+    let dc_26 = l_10 * bt_8[12] + l_11 * bt_8[22] + l_12 * bt_8[24] + l_13 * bt_8[25];
+    let dc_27 = l_10 * bt_8[13] + l_11 * bt_8[23] + l_12 * bt_8[26] + l_13 * bt_8[27];
+    let dc_28 = l_10 * bt_8[14] + l_11 * bt_8[24] + l_12 * bt_8[27] + l_13 * bt_8[28];
+    let dc_29 = l_10 * bt_8[15] + l_11 * bt_8[25] + l_12 * bt_8[28] + l_13 * bt_8[29];
+    let dc_30 = l_10 * bt_8[16] + l_11 * bt_8[26] + l_12 * bt_8[30] + l_13 * bt_8[31];
+    let dc_31 = l_10 * bt_8[17] + l_11 * bt_8[27] + l_12 * bt_8[31] + l_13 * bt_8[32];
+    let dc_32 = l_10 * bt_8[18] + l_11 * bt_8[28] + l_12 * bt_8[32] + l_13 * bt_8[33];
+    let dc_33 = l_10 * bt_8[19] + l_11 * bt_8[29] + l_12 * bt_8[33] + l_13 * bt_8[34];
+    let dc_34 = l_10 * dc_14 + l_11 * dc_15 + l_12 * dc_16 + l_13 * dc_17;
+    let dc_35 = l_10 * dc_15 + l_11 * dc_18 + l_12 * dc_19 + l_13 * dc_20;
+    let dc_36 = l_10 * dc_16 + l_11 * dc_19 + l_12 * dc_21 + l_13 * dc_22;
+    let dc_37 = l_10 * dc_17 + l_11 * dc_20 + l_12 * dc_22 + l_13 * dc_23;
+    let dc_38 = l_10 * dc_18 + l_11 * dc_24 + l_12 * dc_25 + l_13 * dc_26;
+    let dc_39 = l_10 * dc_19 + l_11 * dc_25 + l_12 * dc_27 + l_13 * dc_28;
+    let dc_40 = l_10 * dc_20 + l_11 * dc_26 + l_12 * dc_28 + l_13 * dc_29;
+    let dc_41 = l_10 * dc_21 + l_11 * dc_27 + l_12 * dc_30 + l_13 * dc_31;
+    let dc_42 = l_10 * dc_22 + l_11 * dc_28 + l_12 * dc_31 + l_13 * dc_32;
+    let dc_43 = l_10 * dc_23 + l_11 * dc_29 + l_12 * dc_32 + l_13 * dc_33;
+    let dc_44 = l_10 * dc_34 + l_11 * dc_35 + l_12 * dc_36 + l_13 * dc_37;
+    let dc_45 = l_10 * dc_35 + l_11 * dc_38 + l_12 * dc_39 + l_13 * dc_40;
+    let dc_46 = l_10 * dc_36 + l_11 * dc_39 + l_12 * dc_41 + l_13 * dc_42;
+    let dc_47 = l_10 * dc_37 + l_11 * dc_40 + l_12 * dc_42 + l_13 * dc_43;
+    let v_48 = l_10 * dc_44 + l_11 * dc_45 + l_12 * dc_46 + l_13 * dc_47;
+    let g_49 = 4.0 * vec3<f32>((-dc_46 + dc_47), (-dc_45 + dc_46), (-dc_44 + dc_45));
+    let ht_50 = -dc_36 + dc_37;
+    let ht_51 = -dc_35 + dc_36;
+    let ht_52 = -dc_34 + dc_35;
+    let ht_53 = -dc_39 + dc_40;
+    let ht_54 = -dc_38 + dc_39;
+    let ht_55 = -dc_35 + dc_38;
+    let ht_56 = -dc_41 + dc_42;
+    let ht_57 = -dc_39 + dc_41;
+    let ht_58 = -dc_36 + dc_39;
+    let ht_59 = -dc_42 + dc_43;
+    let ht_60 = -dc_40 + dc_42;
+    let ht_61 = -dc_37 + dc_40;
+    let hs_62 = -12.0 * ht_56 + 12.0 * ht_59;
+    let hs_63 = -12.0 * ht_53 + 12.0 * ht_56;
+    let hs_64 = -12.0 * ht_50 + 12.0 * ht_53;
+    let hs_65 = -12.0 * ht_54 + 12.0 * ht_57;
+    let hs_66 = -12.0 * ht_51 + 12.0 * ht_54;
+    let hs_67 = -12.0 * ht_52 + 12.0 * ht_55;
+    let gw_68 = vec3<f32>(-g_49.x, -g_49.y, -g_49.z);
+    let gx_69 = vec3<f32>(m_5) * gw_68.x + vec3<f32>(m_6) * gw_68.y + vec3<f32>(m_7) * gw_68.z;
+    let hc_70 = vec3<f32>(hs_62, hs_63, hs_64);
+    let hc_71 = vec3<f32>(hs_63, hs_65, hs_66);
+    let hc_72 = vec3<f32>(hs_64, hs_66, hs_67);
+    let hw_73 = -vec3<f32>(-hc_70.x, -hc_70.y, -hc_70.z);
+    let hw_74 = -vec3<f32>(-hc_71.x, -hc_71.y, -hc_71.z);
+    let hw_75 = -vec3<f32>(-hc_72.x, -hc_72.y, -hc_72.z);
+    let hm_76 = mat3x3<f32>(hw_73, hw_74, hw_75);
+    let mf_77 = mat3x3<f32>(vec3<f32>(m_5), vec3<f32>(m_6), vec3<f32>(m_7));
+    let hx_78 = mf_77 * hm_76 * transpose(mf_77);
+    return bcc7_Hessian(v_48, gx_69, hx_78);
 }
 // Kernels. Bindings for the outputs follow the sample bindings.
 @group(0) @binding(2) var<storage, read_write> bcc7_out: array<f32>;

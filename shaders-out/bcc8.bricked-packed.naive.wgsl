@@ -2,7 +2,7 @@
 // boxforge filter `bcc8` on the bcc lattice (3D), layout `bricked-packed`, variant `naive`.
 // Point location: fold + sorting network + plane tests. Fetches per eval: 32. Vector adds for fetch positions: 33 (a matrix-vector product per fetch: 96).
 // Evaluation form: dense (static ops eval/eval_grad of each form: dense 515/524). Fetch bounds: clamp.
-// Entry functions: bcc8_fetch, bcc8_eval, bcc8_eval_grad, bcc8_prefilter_main, bcc8_minmax_main.
+// Entry functions: bcc8_fetch, bcc8_eval, bcc8_eval_grad, bcc8_eval_hessian (form dense), bcc8_prefilter_main, bcc8_minmax_main.
 
 // Bricked, coset-packed layout: the lattice texels cut into bricks of
 // B^3 (B even), each held in a slot of the pool with a halo of h texels on
@@ -475,6 +475,14 @@ fn bcc8_cube_bounds(z: vec3<i32>) -> vec2<f32> {
     return vec2<f32>(lo_401, hi_402);
 }
 
+/// Value, gradient and Hessian (symmetric, d2/dp_i dp_j in column j, row i)
+/// from one set of fetches.
+struct bcc8_Hessian {
+    value: f32,
+    gradient: vec3<f32>,
+    hessian: mat3x3<f32>,
+}
+
 /// The spline at p (lattice coordinates embedded in Z^3).
 fn bcc8_eval(p: vec3<f32>) -> f32 {
     let brick_page = bcc8_page(p);
@@ -710,6 +718,153 @@ fn bcc8_eval_grad(p: vec3<f32>) -> vec4<f32> {
     let gw_85 = vec3<f32>(-g_84.x, -g_84.y, -g_84.z);
     let gx_86 = vec3<f32>(m_5) * gw_85.x + vec3<f32>(m_6) * gw_85.y + vec3<f32>(m_7) * gw_85.z;
     return vec4<f32>(v_83, gx_86);
+}
+
+/// Value, gradient and Hessian from the same fetches.
+fn bcc8_eval_hessian(p: vec3<f32>) -> bcc8_Hessian {
+    let brick_page = bcc8_page(p);
+    let c_0 = 2.0 * round(p * 0.5);
+    let d_1 = p - c_0;
+    let sg_2 = select(vec3<i32>(-1), vec3<i32>(1), d_1 >= vec3<f32>(0.0));
+    let base_3 = vec3<i32>(c_0);
+    var w_4 = abs(d_1);
+    var m_5 = vec3<i32>(sg_2.x, 0, 0);
+    var m_6 = vec3<i32>(0, sg_2.y, 0);
+    var m_7 = vec3<i32>(0, 0, sg_2.z);
+    if (w_4.x < w_4.y) {
+        w_4 = w_4.yxz;
+        let t = m_5;
+        m_5 = m_6;
+        m_6 = t;
+    }
+    if (w_4.y < w_4.z) {
+        w_4 = w_4.xzy;
+        let t = m_6;
+        m_6 = m_7;
+        m_7 = t;
+    }
+    if (w_4.x < w_4.y) {
+        w_4 = w_4.yxz;
+        let t = m_5;
+        m_5 = m_6;
+        m_6 = t;
+    }
+    var f: array<f32, 32>;
+    for (var k = 0; k < 32; k++) {
+        let q = bcc8_OFFSETS[0 * 32 + k];
+        f[k] = bcc8_fetch_in(brick_page, base_3 + m_5 * q.x + m_6 * q.y + m_7 * q.z);
+    }
+    var bt_8 = array<f32, 56>();
+    for (var e = 0; e < 990; e++) {
+        let t = bcc8_W0[e];
+        bt_8[i32(t.x)] += t.z * f[i32(t.y)];
+    }
+    let u_9 = vec3<f32>(-w_4.x, -w_4.y, -w_4.z) + vec3<f32>(1.0, 1.0, 1.0);
+    let l_10 = -u_9.z + 1.0;
+    let l_11 = -u_9.y + u_9.z;
+    let l_12 = -u_9.x + u_9.y;
+    let l_13 = u_9.x;
+    let dc_14 = l_10 * bt_8[0] + l_11 * bt_8[1] + l_12 * bt_8[2] + l_13 * bt_8[3];
+    let dc_15 = l_10 * bt_8[1] + l_11 * bt_8[4] + l_12 * bt_8[5] + l_13 * bt_8[6];
+    let dc_16 = l_10 * bt_8[2] + l_11 * bt_8[5] + l_12 * bt_8[7] + l_13 * bt_8[8];
+    let dc_17 = l_10 * bt_8[3] + l_11 * bt_8[6] + l_12 * bt_8[8] + l_13 * bt_8[9];
+    let dc_18 = l_10 * bt_8[4] + l_11 * bt_8[10] + l_12 * bt_8[11] + l_13 * bt_8[12];
+    let dc_19 = l_10 * bt_8[5] + l_11 * bt_8[11] + l_12 * bt_8[13] + l_13 * bt_8[14];
+    let dc_20 = l_10 * bt_8[6] + l_11 * bt_8[12] + l_12 * bt_8[14] + l_13 * bt_8[15];
+    let dc_21 = l_10 * bt_8[7] + l_11 * bt_8[13] + l_12 * bt_8[16] + l_13 * bt_8[17];
+    let dc_22 = l_10 * bt_8[8] + l_11 * bt_8[14] + l_12 * bt_8[17] + l_13 * bt_8[18];
+    let dc_23 = l_10 * bt_8[9] + l_11 * bt_8[15] + l_12 * bt_8[18] + l_13 * bt_8[19];
+    let dc_24 = l_10 * bt_8[10] + l_11 * bt_8[20] + l_12 * bt_8[21] + l_13 * bt_8[22];
+    let dc_25 = l_10 * bt_8[11] + l_11 * bt_8[21] + l_12 * bt_8[23] + l_13 * bt_8[24];
+    let dc_26 = l_10 * bt_8[12] + l_11 * bt_8[22] + l_12 * bt_8[24] + l_13 * bt_8[25];
+    let dc_27 = l_10 * bt_8[13] + l_11 * bt_8[23] + l_12 * bt_8[26] + l_13 * bt_8[27];
+    let dc_28 = l_10 * bt_8[14] + l_11 * bt_8[24] + l_12 * bt_8[27] + l_13 * bt_8[28];
+    let dc_29 = l_10 * bt_8[15] + l_11 * bt_8[25] + l_12 * bt_8[28] + l_13 * bt_8[29];
+    let dc_30 = l_10 * bt_8[16] + l_11 * bt_8[26] + l_12 * bt_8[30] + l_13 * bt_8[31];
+    let dc_31 = l_10 * bt_8[17] + l_11 * bt_8[27] + l_12 * bt_8[31] + l_13 * bt_8[32];
+    let dc_32 = l_10 * bt_8[18] + l_11 * bt_8[28] + l_12 * bt_8[32] + l_13 * bt_8[33];
+    let dc_33 = l_10 * bt_8[19] + l_11 * bt_8[29] + l_12 * bt_8[33] + l_13 * bt_8[34];
+    let dc_34 = l_10 * bt_8[20] + l_11 * bt_8[35] + l_12 * bt_8[36] + l_13 * bt_8[37];
+    let dc_35 = l_10 * bt_8[21] + l_11 * bt_8[36] + l_12 * bt_8[38] + l_13 * bt_8[39];
+    let dc_36 = l_10 * bt_8[22] + l_11 * bt_8[37] + l_12 * bt_8[39] + l_13 * bt_8[40];
+    let dc_37 = l_10 * bt_8[23] + l_11 * bt_8[38] + l_12 * bt_8[41] + l_13 * bt_8[42];
+    let dc_38 = l_10 * bt_8[24] + l_11 * bt_8[39] + l_12 * bt_8[42] + l_13 * bt_8[43];
+    let dc_39 = l_10 * bt_8[25] + l_11 * bt_8[40] + l_12 * bt_8[43] + l_13 * bt_8[44];
+    let dc_40 = l_10 * bt_8[26] + l_11 * bt_8[41] + l_12 * bt_8[45] + l_13 * bt_8[46];
+    let dc_41 = l_10 * bt_8[27] + l_11 * bt_8[42] + l_12 * bt_8[46] + l_13 * bt_8[47];
+    let dc_42 = l_10 * bt_8[28] + l_11 * bt_8[43] + l_12 * bt_8[47] + l_13 * bt_8[48];
+    let dc_43 = l_10 * bt_8[29] + l_11 * bt_8[44] + l_12 * bt_8[48] + l_13 * bt_8[49];
+    let dc_44 = l_10 * bt_8[30] + l_11 * bt_8[45] + l_12 * bt_8[50] + l_13 * bt_8[51];
+    let dc_45 = l_10 * bt_8[31] + l_11 * bt_8[46] + l_12 * bt_8[51] + l_13 * bt_8[52];
+    let dc_46 = l_10 * bt_8[32] + l_11 * bt_8[47] + l_12 * bt_8[52] + l_13 * bt_8[53];
+    let dc_47 = l_10 * bt_8[33] + l_11 * bt_8[48] + l_12 * bt_8[53] + l_13 * bt_8[54];
+    let dc_48 = l_10 * bt_8[34] + l_11 * bt_8[49] + l_12 * bt_8[54] + l_13 * bt_8[55];
+    let dc_49 = l_10 * dc_14 + l_11 * dc_15 + l_12 * dc_16 + l_13 * dc_17;
+    let dc_50 = l_10 * dc_15 + l_11 * dc_18 + l_12 * dc_19 + l_13 * dc_20;
+    let dc_51 = l_10 * dc_16 + l_11 * dc_19 + l_12 * dc_21 + l_13 * dc_22;
+    let dc_52 = l_10 * dc_17 + l_11 * dc_20 + l_12 * dc_22 + l_13 * dc_23;
+    let dc_53 = l_10 * dc_18 + l_11 * dc_24 + l_12 * dc_25 + l_13 * dc_26;
+    let dc_54 = l_10 * dc_19 + l_11 * dc_25 + l_12 * dc_27 + l_13 * dc_28;
+    let dc_55 = l_10 * dc_20 + l_11 * dc_26 + l_12 * dc_28 + l_13 * dc_29;
+    let dc_56 = l_10 * dc_21 + l_11 * dc_27 + l_12 * dc_30 + l_13 * dc_31;
+    let dc_57 = l_10 * dc_22 + l_11 * dc_28 + l_12 * dc_31 + l_13 * dc_32;
+    let dc_58 = l_10 * dc_23 + l_11 * dc_29 + l_12 * dc_32 + l_13 * dc_33;
+    let dc_59 = l_10 * dc_24 + l_11 * dc_34 + l_12 * dc_35 + l_13 * dc_36;
+    let dc_60 = l_10 * dc_25 + l_11 * dc_35 + l_12 * dc_37 + l_13 * dc_38;
+    let dc_61 = l_10 * dc_26 + l_11 * dc_36 + l_12 * dc_38 + l_13 * dc_39;
+    let dc_62 = l_10 * dc_27 + l_11 * dc_37 + l_12 * dc_40 + l_13 * dc_41;
+    let dc_63 = l_10 * dc_28 + l_11 * dc_38 + l_12 * dc_41 + l_13 * dc_42;
+    let dc_64 = l_10 * dc_29 + l_11 * dc_39 + l_12 * dc_42 + l_13 * dc_43;
+    let dc_65 = l_10 * dc_30 + l_11 * dc_40 + l_12 * dc_44 + l_13 * dc_45;
+    let dc_66 = l_10 * dc_31 + l_11 * dc_41 + l_12 * dc_45 + l_13 * dc_46;
+    let dc_67 = l_10 * dc_32 + l_11 * dc_42 + l_12 * dc_46 + l_13 * dc_47;
+    let dc_68 = l_10 * dc_33 + l_11 * dc_43 + l_12 * dc_47 + l_13 * dc_48;
+    let dc_69 = l_10 * dc_49 + l_11 * dc_50 + l_12 * dc_51 + l_13 * dc_52;
+    let dc_70 = l_10 * dc_50 + l_11 * dc_53 + l_12 * dc_54 + l_13 * dc_55;
+    let dc_71 = l_10 * dc_51 + l_11 * dc_54 + l_12 * dc_56 + l_13 * dc_57;
+    let dc_72 = l_10 * dc_52 + l_11 * dc_55 + l_12 * dc_57 + l_13 * dc_58;
+    let dc_73 = l_10 * dc_53 + l_11 * dc_59 + l_12 * dc_60 + l_13 * dc_61;
+    let dc_74 = l_10 * dc_54 + l_11 * dc_60 + l_12 * dc_62 + l_13 * dc_63;
+    let dc_75 = l_10 * dc_55 + l_11 * dc_61 + l_12 * dc_63 + l_13 * dc_64;
+    let dc_76 = l_10 * dc_56 + l_11 * dc_62 + l_12 * dc_65 + l_13 * dc_66;
+    let dc_77 = l_10 * dc_57 + l_11 * dc_63 + l_12 * dc_66 + l_13 * dc_67;
+    let dc_78 = l_10 * dc_58 + l_11 * dc_64 + l_12 * dc_67 + l_13 * dc_68;
+    let dc_79 = l_10 * dc_69 + l_11 * dc_70 + l_12 * dc_71 + l_13 * dc_72;
+    let dc_80 = l_10 * dc_70 + l_11 * dc_73 + l_12 * dc_74 + l_13 * dc_75;
+    let dc_81 = l_10 * dc_71 + l_11 * dc_74 + l_12 * dc_76 + l_13 * dc_77;
+    let dc_82 = l_10 * dc_72 + l_11 * dc_75 + l_12 * dc_77 + l_13 * dc_78;
+    let v_83 = l_10 * dc_79 + l_11 * dc_80 + l_12 * dc_81 + l_13 * dc_82;
+    let g_84 = 5.0 * vec3<f32>((-dc_81 + dc_82), (-dc_80 + dc_81), (-dc_79 + dc_80));
+    let ht_85 = -dc_71 + dc_72;
+    let ht_86 = -dc_70 + dc_71;
+    let ht_87 = -dc_69 + dc_70;
+    let ht_88 = -dc_74 + dc_75;
+    let ht_89 = -dc_73 + dc_74;
+    let ht_90 = -dc_70 + dc_73;
+    let ht_91 = -dc_76 + dc_77;
+    let ht_92 = -dc_74 + dc_76;
+    let ht_93 = -dc_71 + dc_74;
+    let ht_94 = -dc_77 + dc_78;
+    let ht_95 = -dc_75 + dc_77;
+    let ht_96 = -dc_72 + dc_75;
+    let hs_97 = -20.0 * ht_91 + 20.0 * ht_94;
+    let hs_98 = -20.0 * ht_88 + 20.0 * ht_91;
+    let hs_99 = -20.0 * ht_85 + 20.0 * ht_88;
+    let hs_100 = -20.0 * ht_89 + 20.0 * ht_92;
+    let hs_101 = -20.0 * ht_86 + 20.0 * ht_89;
+    let hs_102 = -20.0 * ht_87 + 20.0 * ht_90;
+    let gw_103 = vec3<f32>(-g_84.x, -g_84.y, -g_84.z);
+    let gx_104 = vec3<f32>(m_5) * gw_103.x + vec3<f32>(m_6) * gw_103.y + vec3<f32>(m_7) * gw_103.z;
+    let hc_105 = vec3<f32>(hs_97, hs_98, hs_99);
+    let hc_106 = vec3<f32>(hs_98, hs_100, hs_101);
+    let hc_107 = vec3<f32>(hs_99, hs_101, hs_102);
+    let hw_108 = -vec3<f32>(-hc_105.x, -hc_105.y, -hc_105.z);
+    let hw_109 = -vec3<f32>(-hc_106.x, -hc_106.y, -hc_106.z);
+    let hw_110 = -vec3<f32>(-hc_107.x, -hc_107.y, -hc_107.z);
+    let hm_111 = mat3x3<f32>(hw_108, hw_109, hw_110);
+    let mf_112 = mat3x3<f32>(vec3<f32>(m_5), vec3<f32>(m_6), vec3<f32>(m_7));
+    let hx_113 = mf_112 * hm_111 * transpose(mf_112);
+    return bcc8_Hessian(v_83, gx_104, hx_113);
 }
 // Kernels. Bindings for the outputs follow the sample bindings.
 @group(0) @binding(3) var<storage, read_write> bcc8_out: array<f32>;

@@ -2,7 +2,7 @@
 // boxforge filter `bcc_sheared_trilinear` on the bcc lattice (3D), layout `embedded`, variant `naive`.
 // Point location: generic select over cube classes and cells. Fetches per eval: 8. Vector adds for fetch positions: 24 (a matrix-vector product per fetch: 24).
 // Evaluation form: dense (static ops eval/eval_grad of each form: dense 372/514). Fetch bounds: clamp.
-// Entry functions: bcc_sheared_trilinear_fetch, bcc_sheared_trilinear_eval, bcc_sheared_trilinear_eval_grad, bcc_sheared_trilinear_prefilter_main, bcc_sheared_trilinear_minmax_main.
+// Entry functions: bcc_sheared_trilinear_fetch, bcc_sheared_trilinear_eval, bcc_sheared_trilinear_eval_grad, bcc_sheared_trilinear_eval_hessian (form dense), bcc_sheared_trilinear_prefilter_main, bcc_sheared_trilinear_minmax_main.
 
 // Embedded layout: the lattice samples sit at their integer positions of a
 // Cartesian texture (|det G| texels per sample); other texels are unused.
@@ -251,6 +251,14 @@ fn bcc_sheared_trilinear_cube_bounds(z: vec3<i32>) -> vec2<f32> {
     let lo_211 = min(lo_193, select(3.4e38, min(min(min(min(min(min(min(min(min(min(min(min(min(min(min(b_195, b_196), b_197), b_198), b_199), b_200), b_201), b_202), b_203), b_204), b_205), b_206), b_207), b_208), b_209), b_210), cls_17 == 3));
     let hi_212 = max(hi_194, select(-3.4e38, max(max(max(max(max(max(max(max(max(max(max(max(max(max(max(b_195, b_196), b_197), b_198), b_199), b_200), b_201), b_202), b_203), b_204), b_205), b_206), b_207), b_208), b_209), b_210), cls_17 == 3));
     return vec2<f32>(lo_211, hi_212);
+}
+
+/// Value, gradient and Hessian (symmetric, d2/dp_i dp_j in column j, row i)
+/// from one set of fetches.
+struct bcc_sheared_trilinear_Hessian {
+    value: f32,
+    gradient: vec3<f32>,
+    hessian: mat3x3<f32>,
 }
 
 /// The spline at p (lattice coordinates embedded in Z^3).
@@ -509,6 +517,290 @@ fn bcc_sheared_trilinear_eval_grad(p: vec3<f32>) -> vec4<f32> {
     let gw_100 = select(gw_99, gw_92, ci == 8);
     let gx_101 = vec3<f32>(vec3<i32>(1, 0, 0)) * gw_100.x + vec3<f32>(vec3<i32>(0, 1, 0)) * gw_100.y + vec3<f32>(vec3<i32>(0, 0, 1)) * gw_100.z;
     return vec4<f32>(val_83, gx_101);
+}
+
+/// Value, gradient and Hessian from the same fetches.
+fn bcc_sheared_trilinear_eval_hessian(p: vec3<f32>) -> bcc_sheared_trilinear_Hessian {
+    let z_0 = vec3<i32>(floor(p - vec3<f32>(0.0, 0.0, 0.0)));
+    let q_1 = bcc_sheared_trilinear_floor_div(z_0.x, 1);
+    let r_2 = z_0 - q_1 * vec3<i32>(1, -1, -1);
+    let q_3 = bcc_sheared_trilinear_floor_div(r_2.y, 2);
+    let r_4 = r_2 - q_3 * vec3<i32>(0, 2, 0);
+    let q_5 = bcc_sheared_trilinear_floor_div(r_4.z, 2);
+    let r_6 = r_4 - q_5 * vec3<i32>(0, 0, 2);
+    var cls_7 = 0;
+    var rep_8 = vec3<i32>(0, 0, 0);
+    let hit_9 = all(r_6 == vec3<i32>(0, 1, 1));
+    if (hit_9) { cls_7 = 1; rep_8 = vec3<i32>(1, 0, 0); }
+    let hit_10 = all(r_6 == vec3<i32>(0, 1, 0));
+    if (hit_10) { cls_7 = 2; rep_8 = vec3<i32>(0, 1, 0); }
+    let hit_11 = all(r_6 == vec3<i32>(0, 0, 1));
+    if (hit_11) { cls_7 = 3; rep_8 = vec3<i32>(0, 0, 1); }
+    let base_12 = z_0 - rep_8;
+    let w_13 = p - vec3<f32>(base_12);
+    var ci = 0;
+    if ((-w_13.x <= 0.0 + 1e-6) && (w_13.y <= 1.0 + 1e-6) && (w_13.x - w_13.z <= 0.0 + 1e-6) && (-w_13.y + w_13.z <= 0.0 + 1e-6) && (cls_7 == 0)) { ci = 1; }
+    if ((w_13.x <= 1.0 + 1e-6) && (w_13.y <= 1.0 + 1e-6) && (-w_13.z <= 0.0 + 1e-6) && (-w_13.x + w_13.z <= 0.0 + 1e-6) && (-w_13.y + w_13.z <= 0.0 + 1e-6) && (cls_7 == 0)) { ci = 2; }
+    if ((w_13.x <= 1.0 + 1e-6) && (-w_13.y <= 0.0 + 1e-6) && (-w_13.x + w_13.z <= 0.0 + 1e-6) && (w_13.y - w_13.z <= 0.0 + 1e-6) && (cls_7 == 0)) { ci = 3; }
+    if ((w_13.x <= 2.0 + 1e-6) && (-w_13.x <= -1.0 + 1e-6) && (-w_13.y <= 0.0 + 1e-6) && (w_13.z <= 1.0 + 1e-6) && (w_13.y - w_13.z <= 0.0 + 1e-6) && (cls_7 == 1)) { ci = 4; }
+    if ((w_13.x <= 2.0 + 1e-6) && (-w_13.x <= -1.0 + 1e-6) && (w_13.y <= 1.0 + 1e-6) && (-w_13.z <= 0.0 + 1e-6) && (-w_13.y + w_13.z <= 0.0 + 1e-6) && (cls_7 == 1)) { ci = 5; }
+    if ((-w_13.x <= 0.0 + 1e-6) && (w_13.y <= 2.0 + 1e-6) && (-w_13.y <= -1.0 + 1e-6) && (w_13.z <= 1.0 + 1e-6) && (w_13.x - w_13.z <= 0.0 + 1e-6) && (cls_7 == 2)) { ci = 6; }
+    if ((w_13.x <= 1.0 + 1e-6) && (w_13.y <= 2.0 + 1e-6) && (-w_13.y <= -1.0 + 1e-6) && (-w_13.z <= 0.0 + 1e-6) && (-w_13.x + w_13.z <= 0.0 + 1e-6) && (cls_7 == 2)) { ci = 7; }
+    if ((w_13.x <= 1.0 + 1e-6) && (-w_13.x <= 0.0 + 1e-6) && (w_13.y <= 1.0 + 1e-6) && (-w_13.y <= 0.0 + 1e-6) && (w_13.z <= 2.0 + 1e-6) && (-w_13.z <= -1.0 + 1e-6) && (cls_7 == 3)) { ci = 8; }
+    var f: array<f32, 8>;
+    for (var k = 0; k < 8; k++) {
+        let q = bcc_sheared_trilinear_OFFSETS[ci * 8 + k];
+        f[k] = bcc_sheared_trilinear_fetch(base_12 + vec3<i32>(1, 0, 0) * q.x + vec3<i32>(0, 1, 0) * q.y + vec3<i32>(0, 0, 1) * q.z);
+    }
+    var bt_14 = array<f32, 12>();
+    for (var e = 0; e < 64; e++) {
+        let t = bcc_sheared_trilinear_W0[e];
+        bt_14[i32(t.x)] += t.z * f[i32(t.y)];
+    }
+    let u_15 = vec3<f32>(w_13.x, w_13.y, w_13.z);
+    let u_16 = vec3<f32>(-w_13.x, -w_13.y, -w_13.z) + vec3<f32>(1.0, 1.0, 1.0);
+    let u_17 = select(u_15, u_16, ci == 2);
+    let h_18 = bt_14[11] * u_17.z + bt_14[7];
+    let h_19 = bt_14[11] + bt_14[11];
+    let h_20 = bt_14[11] * u_17.z + h_18;
+    let h_21 = h_18 * u_17.z + bt_14[3];
+    let h_22 = h_19 * u_17.z + h_20 + h_20;
+    let h_23 = h_20 * u_17.z + h_21;
+    let h_24 = h_21 * u_17.z + bt_14[0];
+    let h_25 = bt_14[10] * u_17.z + bt_14[6];
+    let h_26 = bt_14[10] + bt_14[10];
+    let h_27 = bt_14[10] * u_17.z + h_25;
+    let h_28 = h_25 * u_17.z + bt_14[2];
+    let h_29 = h_26 * u_17.y + h_22;
+    let h_30 = h_27 * u_17.y + h_23;
+    let h_31 = h_28 * u_17.y + h_24;
+    let h_32 = bt_14[9] * u_17.z + bt_14[5];
+    let h_33 = bt_14[9] + bt_14[9];
+    let h_34 = bt_14[9] * u_17.z + h_32;
+    let h_35 = h_32 * u_17.z + bt_14[1];
+    let h_36 = bt_14[8] * u_17.z + bt_14[4];
+    let h_37 = bt_14[8] * u_17.y + h_34;
+    let h_38 = h_36 * u_17.y + h_35;
+    let h_39 = bt_14[8] * u_17.x + h_27;
+    let h_40 = h_33 * u_17.x + h_29;
+    let h_41 = h_36 * u_17.x + h_28;
+    let h_42 = h_37 * u_17.x + h_30;
+    let h_43 = h_38 * u_17.x + h_31;
+    let v_44 = h_43;
+    let g_45 = vec3<f32>(h_38, h_41, h_42);
+    var bt_46 = array<f32, 20>();
+    for (var e = 0; e < 64; e++) {
+        let t = bcc_sheared_trilinear_W1[e];
+        bt_46[i32(t.x)] += t.z * f[i32(t.y)];
+    }
+    let u_47 = vec3<f32>(w_13.x, w_13.y, w_13.z);
+    let u_48 = vec3<f32>(-w_13.x, -w_13.y, -w_13.z) + vec3<f32>(1.0, 1.0, 1.0);
+    let u_49 = select(u_47, u_48, ci == 3);
+    let l_50 = -u_49.y + 1.0;
+    let l_51 = u_49.y - u_49.z;
+    let l_52 = -u_49.x + u_49.z;
+    let l_53 = u_49.x;
+    let dc_54 = l_50 * bt_46[0] + l_51 * bt_46[1] + l_52 * bt_46[2] + l_53 * bt_46[3];
+    let dc_55 = l_50 * bt_46[1] + l_51 * bt_46[4] + l_52 * bt_46[5] + l_53 * bt_46[6];
+    let dc_56 = l_50 * bt_46[2] + l_51 * bt_46[5] + l_52 * bt_46[7] + l_53 * bt_46[8];
+    let dc_57 = l_50 * bt_46[3] + l_51 * bt_46[6] + l_52 * bt_46[8] + l_53 * bt_46[9];
+    let dc_58 = l_50 * bt_46[4] + l_51 * bt_46[10] + l_52 * bt_46[11] + l_53 * bt_46[12];
+    let dc_59 = l_50 * bt_46[5] + l_51 * bt_46[11] + l_52 * bt_46[13] + l_53 * bt_46[14];
+    let dc_60 = l_50 * bt_46[6] + l_51 * bt_46[12] + l_52 * bt_46[14] + l_53 * bt_46[15];
+    let dc_61 = l_50 * bt_46[7] + l_51 * bt_46[13] + l_52 * bt_46[16] + l_53 * bt_46[17];
+    let dc_62 = l_50 * bt_46[8] + l_51 * bt_46[14] + l_52 * bt_46[17] + l_53 * bt_46[18];
+    let dc_63 = l_50 * bt_46[9] + l_51 * bt_46[15] + l_52 * bt_46[18] + l_53 * bt_46[19];
+    let dc_64 = l_50 * dc_54 + l_51 * dc_55 + l_52 * dc_56 + l_53 * dc_57;
+    let dc_65 = l_50 * dc_55 + l_51 * dc_58 + l_52 * dc_59 + l_53 * dc_60;
+    let dc_66 = l_50 * dc_56 + l_51 * dc_59 + l_52 * dc_61 + l_53 * dc_62;
+    let dc_67 = l_50 * dc_57 + l_51 * dc_60 + l_52 * dc_62 + l_53 * dc_63;
+    let v_68 = l_50 * dc_64 + l_51 * dc_65 + l_52 * dc_66 + l_53 * dc_67;
+    let g_69 = 3.0 * vec3<f32>((-dc_66 + dc_67), (-dc_64 + dc_65), (-dc_65 + dc_66));
+    let ht_70 = -dc_56 + dc_57;
+    let ht_71 = -dc_54 + dc_55;
+    let ht_72 = -dc_55 + dc_56;
+    let ht_73 = -dc_59 + dc_60;
+    let ht_74 = -dc_55 + dc_58;
+    let ht_75 = -dc_58 + dc_59;
+    let ht_76 = -dc_61 + dc_62;
+    let ht_77 = -dc_56 + dc_59;
+    let ht_78 = -dc_59 + dc_61;
+    let ht_79 = -dc_62 + dc_63;
+    let ht_80 = -dc_57 + dc_60;
+    let ht_81 = -dc_60 + dc_62;
+    let hs_82 = -6.0 * ht_76 + 6.0 * ht_79;
+    let hs_83 = -6.0 * ht_70 + 6.0 * ht_73;
+    let hs_84 = -6.0 * ht_73 + 6.0 * ht_76;
+    let hs_85 = -6.0 * ht_71 + 6.0 * ht_74;
+    let hs_86 = -6.0 * ht_74 + 6.0 * ht_77;
+    let hs_87 = -6.0 * ht_75 + 6.0 * ht_78;
+    var bt_88 = array<f32, 12>();
+    for (var e = 0; e < 69; e++) {
+        let t = bcc_sheared_trilinear_W2[e];
+        bt_88[i32(t.x)] += t.z * f[i32(t.y)];
+    }
+    let u_89 = vec3<f32>(w_13.x, w_13.y, w_13.z) + vec3<f32>(-1.0, 0.0, 0.0);
+    let u_90 = vec3<f32>(-w_13.x, -w_13.y, -w_13.z) + vec3<f32>(2.0, 1.0, 1.0);
+    let u_91 = select(u_89, u_90, ci == 5);
+    let u_92 = vec3<f32>(w_13.y, w_13.x, w_13.z) + vec3<f32>(-1.0, 0.0, 0.0);
+    let u_93 = select(u_91, u_92, ci == 6);
+    let u_94 = vec3<f32>(-w_13.y, -w_13.x, -w_13.z) + vec3<f32>(2.0, 1.0, 1.0);
+    let u_95 = select(u_93, u_94, ci == 7);
+    let h_96 = bt_88[11] * u_95.z + bt_88[7];
+    let h_97 = bt_88[11] + bt_88[11];
+    let h_98 = bt_88[11] * u_95.z + h_96;
+    let h_99 = h_96 * u_95.z + bt_88[3];
+    let h_100 = h_97 * u_95.z + h_98 + h_98;
+    let h_101 = h_98 * u_95.z + h_99;
+    let h_102 = h_99 * u_95.z + bt_88[0];
+    let h_103 = bt_88[10] * u_95.z + bt_88[6];
+    let h_104 = bt_88[10] + bt_88[10];
+    let h_105 = bt_88[10] * u_95.z + h_103;
+    let h_106 = h_103 * u_95.z + bt_88[2];
+    let h_107 = h_104 * u_95.y + h_100;
+    let h_108 = h_105 * u_95.y + h_101;
+    let h_109 = h_106 * u_95.y + h_102;
+    let h_110 = bt_88[9] * u_95.z + bt_88[5];
+    let h_111 = bt_88[9] + bt_88[9];
+    let h_112 = bt_88[9] * u_95.z + h_110;
+    let h_113 = h_110 * u_95.z + bt_88[1];
+    let h_114 = bt_88[8] * u_95.z + bt_88[4];
+    let h_115 = bt_88[8] * u_95.y + h_112;
+    let h_116 = h_114 * u_95.y + h_113;
+    let h_117 = bt_88[8] * u_95.x + h_105;
+    let h_118 = h_111 * u_95.x + h_107;
+    let h_119 = h_114 * u_95.x + h_106;
+    let h_120 = h_115 * u_95.x + h_108;
+    let h_121 = h_116 * u_95.x + h_109;
+    let v_122 = h_121;
+    let g_123 = vec3<f32>(h_116, h_119, h_120);
+    var bt_124 = array<f32, 12>();
+    for (var e = 0; e < 74; e++) {
+        let t = bcc_sheared_trilinear_W3[e];
+        bt_124[i32(t.x)] += t.z * f[i32(t.y)];
+    }
+    let u_125 = vec3<f32>(w_13.x, w_13.y, w_13.z) + vec3<f32>(0.0, 0.0, -1.0);
+    let h_126 = bt_124[11] * u_125.z + bt_124[7];
+    let h_127 = bt_124[11] + bt_124[11];
+    let h_128 = bt_124[11] * u_125.z + h_126;
+    let h_129 = h_126 * u_125.z + bt_124[3];
+    let h_130 = h_127 * u_125.z + h_128 + h_128;
+    let h_131 = h_128 * u_125.z + h_129;
+    let h_132 = h_129 * u_125.z + bt_124[0];
+    let h_133 = bt_124[10] * u_125.z + bt_124[6];
+    let h_134 = bt_124[10] + bt_124[10];
+    let h_135 = bt_124[10] * u_125.z + h_133;
+    let h_136 = h_133 * u_125.z + bt_124[2];
+    let h_137 = h_134 * u_125.y + h_130;
+    let h_138 = h_135 * u_125.y + h_131;
+    let h_139 = h_136 * u_125.y + h_132;
+    let h_140 = bt_124[9] * u_125.z + bt_124[5];
+    let h_141 = bt_124[9] + bt_124[9];
+    let h_142 = bt_124[9] * u_125.z + h_140;
+    let h_143 = h_140 * u_125.z + bt_124[1];
+    let h_144 = bt_124[8] * u_125.z + bt_124[4];
+    let h_145 = bt_124[8] * u_125.y + h_142;
+    let h_146 = h_144 * u_125.y + h_143;
+    let h_147 = bt_124[8] * u_125.x + h_135;
+    let h_148 = h_141 * u_125.x + h_137;
+    let h_149 = h_144 * u_125.x + h_136;
+    let h_150 = h_145 * u_125.x + h_138;
+    let h_151 = h_146 * u_125.x + h_139;
+    let v_152 = h_151;
+    let g_153 = vec3<f32>(h_146, h_149, h_150);
+    let val_154 = select(v_44, v_68, ci == 1);
+    let val_155 = select(val_154, v_44, ci == 2);
+    let val_156 = select(val_155, v_68, ci == 3);
+    let val_157 = select(val_156, v_122, ci == 4);
+    let val_158 = select(val_157, v_122, ci == 5);
+    let val_159 = select(val_158, v_122, ci == 6);
+    let val_160 = select(val_159, v_122, ci == 7);
+    let val_161 = select(val_160, v_152, ci == 8);
+    let gw_162 = vec3<f32>(g_45.x, g_45.y, g_45.z);
+    let gw_163 = vec3<f32>(g_69.x, g_69.y, g_69.z);
+    let gw_164 = vec3<f32>(-g_45.x, -g_45.y, -g_45.z);
+    let gw_165 = vec3<f32>(-g_69.x, -g_69.y, -g_69.z);
+    let gw_166 = vec3<f32>(g_123.x, g_123.y, g_123.z);
+    let gw_167 = vec3<f32>(-g_123.x, -g_123.y, -g_123.z);
+    let gw_168 = vec3<f32>(g_123.y, g_123.x, g_123.z);
+    let gw_169 = vec3<f32>(-g_123.y, -g_123.x, -g_123.z);
+    let gw_170 = vec3<f32>(g_153.x, g_153.y, g_153.z);
+    let gw_171 = select(gw_162, gw_163, ci == 1);
+    let gw_172 = select(gw_171, gw_164, ci == 2);
+    let gw_173 = select(gw_172, gw_165, ci == 3);
+    let gw_174 = select(gw_173, gw_166, ci == 4);
+    let gw_175 = select(gw_174, gw_167, ci == 5);
+    let gw_176 = select(gw_175, gw_168, ci == 6);
+    let gw_177 = select(gw_176, gw_169, ci == 7);
+    let gw_178 = select(gw_177, gw_170, ci == 8);
+    let gx_179 = vec3<f32>(vec3<i32>(1, 0, 0)) * gw_178.x + vec3<f32>(vec3<i32>(0, 1, 0)) * gw_178.y + vec3<f32>(vec3<i32>(0, 0, 1)) * gw_178.z;
+    let hc_180 = vec3<f32>(0.0, h_36, h_37);
+    let hc_181 = vec3<f32>(h_36, 0.0, h_39);
+    let hc_182 = vec3<f32>(h_37, h_39, h_40);
+    let hc_183 = vec3<f32>(hs_82, hs_83, hs_84);
+    let hc_184 = vec3<f32>(hs_83, hs_85, hs_86);
+    let hc_185 = vec3<f32>(hs_84, hs_86, hs_87);
+    let hc_186 = vec3<f32>(0.0, h_114, h_115);
+    let hc_187 = vec3<f32>(h_114, 0.0, h_117);
+    let hc_188 = vec3<f32>(h_115, h_117, h_118);
+    let hc_189 = vec3<f32>(0.0, h_144, h_145);
+    let hc_190 = vec3<f32>(h_144, 0.0, h_147);
+    let hc_191 = vec3<f32>(h_145, h_147, h_148);
+    let hw_192 = vec3<f32>(hc_180.x, hc_180.y, hc_180.z);
+    let hw_193 = vec3<f32>(hc_183.x, hc_183.y, hc_183.z);
+    let hw_194 = -vec3<f32>(-hc_180.x, -hc_180.y, -hc_180.z);
+    let hw_195 = -vec3<f32>(-hc_183.x, -hc_183.y, -hc_183.z);
+    let hw_196 = vec3<f32>(hc_186.x, hc_186.y, hc_186.z);
+    let hw_197 = -vec3<f32>(-hc_186.x, -hc_186.y, -hc_186.z);
+    let hw_198 = vec3<f32>(hc_187.y, hc_187.x, hc_187.z);
+    let hw_199 = -vec3<f32>(-hc_187.y, -hc_187.x, -hc_187.z);
+    let hw_200 = vec3<f32>(hc_189.x, hc_189.y, hc_189.z);
+    let hw_201 = select(hw_192, hw_193, ci == 1);
+    let hw_202 = select(hw_201, hw_194, ci == 2);
+    let hw_203 = select(hw_202, hw_195, ci == 3);
+    let hw_204 = select(hw_203, hw_196, ci == 4);
+    let hw_205 = select(hw_204, hw_197, ci == 5);
+    let hw_206 = select(hw_205, hw_198, ci == 6);
+    let hw_207 = select(hw_206, hw_199, ci == 7);
+    let hw_208 = select(hw_207, hw_200, ci == 8);
+    let hw_209 = vec3<f32>(hc_181.x, hc_181.y, hc_181.z);
+    let hw_210 = vec3<f32>(hc_184.x, hc_184.y, hc_184.z);
+    let hw_211 = -vec3<f32>(-hc_181.x, -hc_181.y, -hc_181.z);
+    let hw_212 = -vec3<f32>(-hc_184.x, -hc_184.y, -hc_184.z);
+    let hw_213 = vec3<f32>(hc_187.x, hc_187.y, hc_187.z);
+    let hw_214 = -vec3<f32>(-hc_187.x, -hc_187.y, -hc_187.z);
+    let hw_215 = vec3<f32>(hc_186.y, hc_186.x, hc_186.z);
+    let hw_216 = -vec3<f32>(-hc_186.y, -hc_186.x, -hc_186.z);
+    let hw_217 = vec3<f32>(hc_190.x, hc_190.y, hc_190.z);
+    let hw_218 = select(hw_209, hw_210, ci == 1);
+    let hw_219 = select(hw_218, hw_211, ci == 2);
+    let hw_220 = select(hw_219, hw_212, ci == 3);
+    let hw_221 = select(hw_220, hw_213, ci == 4);
+    let hw_222 = select(hw_221, hw_214, ci == 5);
+    let hw_223 = select(hw_222, hw_215, ci == 6);
+    let hw_224 = select(hw_223, hw_216, ci == 7);
+    let hw_225 = select(hw_224, hw_217, ci == 8);
+    let hw_226 = vec3<f32>(hc_182.x, hc_182.y, hc_182.z);
+    let hw_227 = vec3<f32>(hc_185.x, hc_185.y, hc_185.z);
+    let hw_228 = -vec3<f32>(-hc_182.x, -hc_182.y, -hc_182.z);
+    let hw_229 = -vec3<f32>(-hc_185.x, -hc_185.y, -hc_185.z);
+    let hw_230 = vec3<f32>(hc_188.x, hc_188.y, hc_188.z);
+    let hw_231 = -vec3<f32>(-hc_188.x, -hc_188.y, -hc_188.z);
+    let hw_232 = vec3<f32>(hc_188.y, hc_188.x, hc_188.z);
+    let hw_233 = -vec3<f32>(-hc_188.y, -hc_188.x, -hc_188.z);
+    let hw_234 = vec3<f32>(hc_191.x, hc_191.y, hc_191.z);
+    let hw_235 = select(hw_226, hw_227, ci == 1);
+    let hw_236 = select(hw_235, hw_228, ci == 2);
+    let hw_237 = select(hw_236, hw_229, ci == 3);
+    let hw_238 = select(hw_237, hw_230, ci == 4);
+    let hw_239 = select(hw_238, hw_231, ci == 5);
+    let hw_240 = select(hw_239, hw_232, ci == 6);
+    let hw_241 = select(hw_240, hw_233, ci == 7);
+    let hw_242 = select(hw_241, hw_234, ci == 8);
+    let hm_243 = mat3x3<f32>(hw_208, hw_225, hw_242);
+    let mf_244 = mat3x3<f32>(vec3<f32>(vec3<i32>(1, 0, 0)), vec3<f32>(vec3<i32>(0, 1, 0)), vec3<f32>(vec3<i32>(0, 0, 1)));
+    let hx_245 = mf_244 * hm_243 * transpose(mf_244);
+    return bcc_sheared_trilinear_Hessian(val_161, gx_179, hx_245);
 }
 // Kernels. Bindings for the outputs follow the sample bindings.
 @group(0) @binding(1) var<storage, read_write> bcc_sheared_trilinear_out: array<f32>;

@@ -2,7 +2,7 @@
 // boxforge filter `cc_tricubic` on the cc lattice (3D), layout `packed`, variant `fast`.
 // Point location: tensor product: per coset floor and fraction, no cell location. Fetches per eval: 64. Vector adds for fetch positions: 63 (a matrix-vector product per fetch: 63).
 // Evaluation form: factored (static ops eval/eval_grad of each form: factored 267/486, power 815/940, bb 815/940, dense 3686/4240). Fetch bounds: clamp.
-// Entry functions: cc_tricubic_fetch, cc_tricubic_eval, cc_tricubic_eval_grad, cc_tricubic_prefilter_main, cc_tricubic_minmax_main.
+// Entry functions: cc_tricubic_fetch, cc_tricubic_eval, cc_tricubic_eval_grad, cc_tricubic_eval_hessian (form factored), cc_tricubic_prefilter_main, cc_tricubic_minmax_main.
 
 // Coset-packed layout: one word per sample, the cosets of 2Z^3 in the
 // lattice (8 cosets) tiled in one r32float texture. Sample j lives in
@@ -428,6 +428,14 @@ fn cc_tricubic_cube_bounds(z: vec3<i32>) -> vec2<f32> {
     return vec2<f32>(lo_382, hi_383);
 }
 
+/// Value, gradient and Hessian (symmetric, d2/dp_i dp_j in column j, row i)
+/// from one set of fetches.
+struct cc_tricubic_Hessian {
+    value: f32,
+    gradient: vec3<f32>,
+    hessian: mat3x3<f32>,
+}
+
 /// The spline at p (lattice coordinates embedded in Z^3).
 fn cc_tricubic_eval(p: vec3<f32>) -> f32 {
     let s_0 = p + 2.0;
@@ -689,6 +697,202 @@ fn cc_tricubic_eval_grad(p: vec3<f32>) -> vec4<f32> {
     let c_144 = wt_26 * c_134 + wt_28 * c_135 + wt_30 * c_136 + wt_32 * c_137;
     let c_145 = wt_26 * c_138 + wt_28 * c_139 + wt_30 * c_140 + wt_32 * c_141;
     return vec4<f32>(c_142, c_145, c_144, c_143);
+}
+
+/// Value, gradient and Hessian from the same fetches.
+fn cc_tricubic_eval_hessian(p: vec3<f32>) -> cc_tricubic_Hessian {
+    let s_0 = p + 2.0;
+    let fl_1 = floor(s_0);
+    let t_2 = s_0 - fl_1;
+    let jb_3 = vec3<i32>(fl_1);
+    let tp_4 = t_2.x * t_2.x;
+    let tp_5 = tp_4 * t_2.x;
+    let wt_6 = 0.16666667 * tp_5;
+    let dwt_7 = 0.5 * tp_4;
+    let wt_8 = 0.16666667 + 0.5 * t_2.x + 0.5 * tp_4 - 0.5 * tp_5;
+    let dwt_9 = 0.5 + t_2.x - 1.5 * tp_4;
+    let ddwt_10 = 1.0 - 3.0 * t_2.x;
+    let wt_11 = 0.6666667 - tp_4 + 0.5 * tp_5;
+    let dwt_12 = -2.0 * t_2.x + 1.5 * tp_4;
+    let ddwt_13 = -2.0 + 3.0 * t_2.x;
+    let wt_14 = 0.16666667 - 0.5 * t_2.x + 0.5 * tp_4 - 0.16666667 * tp_5;
+    let dwt_15 = -0.5 + t_2.x - 0.5 * tp_4;
+    let ddwt_16 = 1.0 - t_2.x;
+    let tp_17 = t_2.y * t_2.y;
+    let tp_18 = tp_17 * t_2.y;
+    let wt_19 = 0.16666667 * tp_18;
+    let dwt_20 = 0.5 * tp_17;
+    let wt_21 = 0.16666667 + 0.5 * t_2.y + 0.5 * tp_17 - 0.5 * tp_18;
+    let dwt_22 = 0.5 + t_2.y - 1.5 * tp_17;
+    let ddwt_23 = 1.0 - 3.0 * t_2.y;
+    let wt_24 = 0.6666667 - tp_17 + 0.5 * tp_18;
+    let dwt_25 = -2.0 * t_2.y + 1.5 * tp_17;
+    let ddwt_26 = -2.0 + 3.0 * t_2.y;
+    let wt_27 = 0.16666667 - 0.5 * t_2.y + 0.5 * tp_17 - 0.16666667 * tp_18;
+    let dwt_28 = -0.5 + t_2.y - 0.5 * tp_17;
+    let ddwt_29 = 1.0 - t_2.y;
+    let tp_30 = t_2.z * t_2.z;
+    let tp_31 = tp_30 * t_2.z;
+    let wt_32 = 0.16666667 * tp_31;
+    let dwt_33 = 0.5 * tp_30;
+    let wt_34 = 0.16666667 + 0.5 * t_2.z + 0.5 * tp_30 - 0.5 * tp_31;
+    let dwt_35 = 0.5 + t_2.z - 1.5 * tp_30;
+    let ddwt_36 = 1.0 - 3.0 * t_2.z;
+    let wt_37 = 0.6666667 - tp_30 + 0.5 * tp_31;
+    let dwt_38 = -2.0 * t_2.z + 1.5 * tp_30;
+    let ddwt_39 = -2.0 + 3.0 * t_2.z;
+    let wt_40 = 0.16666667 - 0.5 * t_2.z + 0.5 * tp_30 - 0.16666667 * tp_31;
+    let dwt_41 = -0.5 + t_2.z - 0.5 * tp_30;
+    let ddwt_42 = 1.0 - t_2.z;
+    let f_43 = cc_tricubic_fetch(jb_3);
+    let f_44 = cc_tricubic_fetch(jb_3 + vec3<i32>(-1, 0, 0));
+    let f_45 = cc_tricubic_fetch(jb_3 + vec3<i32>(-2, 0, 0));
+    let f_46 = cc_tricubic_fetch(jb_3 + vec3<i32>(-3, 0, 0));
+    let f_47 = cc_tricubic_fetch(jb_3 + vec3<i32>(0, -1, 0));
+    let f_48 = cc_tricubic_fetch(jb_3 + vec3<i32>(-1, -1, 0));
+    let f_49 = cc_tricubic_fetch(jb_3 + vec3<i32>(-2, -1, 0));
+    let f_50 = cc_tricubic_fetch(jb_3 + vec3<i32>(-3, -1, 0));
+    let f_51 = cc_tricubic_fetch(jb_3 + vec3<i32>(0, -2, 0));
+    let f_52 = cc_tricubic_fetch(jb_3 + vec3<i32>(-1, -2, 0));
+    let f_53 = cc_tricubic_fetch(jb_3 + vec3<i32>(-2, -2, 0));
+    let f_54 = cc_tricubic_fetch(jb_3 + vec3<i32>(-3, -2, 0));
+    let f_55 = cc_tricubic_fetch(jb_3 + vec3<i32>(0, -3, 0));
+    let f_56 = cc_tricubic_fetch(jb_3 + vec3<i32>(-1, -3, 0));
+    let f_57 = cc_tricubic_fetch(jb_3 + vec3<i32>(-2, -3, 0));
+    let f_58 = cc_tricubic_fetch(jb_3 + vec3<i32>(-3, -3, 0));
+    let f_59 = cc_tricubic_fetch(jb_3 + vec3<i32>(0, 0, -1));
+    let f_60 = cc_tricubic_fetch(jb_3 + vec3<i32>(-1, 0, -1));
+    let f_61 = cc_tricubic_fetch(jb_3 + vec3<i32>(-2, 0, -1));
+    let f_62 = cc_tricubic_fetch(jb_3 + vec3<i32>(-3, 0, -1));
+    let f_63 = cc_tricubic_fetch(jb_3 + vec3<i32>(0, -1, -1));
+    let f_64 = cc_tricubic_fetch(jb_3 + vec3<i32>(-1, -1, -1));
+    let f_65 = cc_tricubic_fetch(jb_3 + vec3<i32>(-2, -1, -1));
+    let f_66 = cc_tricubic_fetch(jb_3 + vec3<i32>(-3, -1, -1));
+    let f_67 = cc_tricubic_fetch(jb_3 + vec3<i32>(0, -2, -1));
+    let f_68 = cc_tricubic_fetch(jb_3 + vec3<i32>(-1, -2, -1));
+    let f_69 = cc_tricubic_fetch(jb_3 + vec3<i32>(-2, -2, -1));
+    let f_70 = cc_tricubic_fetch(jb_3 + vec3<i32>(-3, -2, -1));
+    let f_71 = cc_tricubic_fetch(jb_3 + vec3<i32>(0, -3, -1));
+    let f_72 = cc_tricubic_fetch(jb_3 + vec3<i32>(-1, -3, -1));
+    let f_73 = cc_tricubic_fetch(jb_3 + vec3<i32>(-2, -3, -1));
+    let f_74 = cc_tricubic_fetch(jb_3 + vec3<i32>(-3, -3, -1));
+    let f_75 = cc_tricubic_fetch(jb_3 + vec3<i32>(0, 0, -2));
+    let f_76 = cc_tricubic_fetch(jb_3 + vec3<i32>(-1, 0, -2));
+    let f_77 = cc_tricubic_fetch(jb_3 + vec3<i32>(-2, 0, -2));
+    let f_78 = cc_tricubic_fetch(jb_3 + vec3<i32>(-3, 0, -2));
+    let f_79 = cc_tricubic_fetch(jb_3 + vec3<i32>(0, -1, -2));
+    let f_80 = cc_tricubic_fetch(jb_3 + vec3<i32>(-1, -1, -2));
+    let f_81 = cc_tricubic_fetch(jb_3 + vec3<i32>(-2, -1, -2));
+    let f_82 = cc_tricubic_fetch(jb_3 + vec3<i32>(-3, -1, -2));
+    let f_83 = cc_tricubic_fetch(jb_3 + vec3<i32>(0, -2, -2));
+    let f_84 = cc_tricubic_fetch(jb_3 + vec3<i32>(-1, -2, -2));
+    let f_85 = cc_tricubic_fetch(jb_3 + vec3<i32>(-2, -2, -2));
+    let f_86 = cc_tricubic_fetch(jb_3 + vec3<i32>(-3, -2, -2));
+    let f_87 = cc_tricubic_fetch(jb_3 + vec3<i32>(0, -3, -2));
+    let f_88 = cc_tricubic_fetch(jb_3 + vec3<i32>(-1, -3, -2));
+    let f_89 = cc_tricubic_fetch(jb_3 + vec3<i32>(-2, -3, -2));
+    let f_90 = cc_tricubic_fetch(jb_3 + vec3<i32>(-3, -3, -2));
+    let f_91 = cc_tricubic_fetch(jb_3 + vec3<i32>(0, 0, -3));
+    let f_92 = cc_tricubic_fetch(jb_3 + vec3<i32>(-1, 0, -3));
+    let f_93 = cc_tricubic_fetch(jb_3 + vec3<i32>(-2, 0, -3));
+    let f_94 = cc_tricubic_fetch(jb_3 + vec3<i32>(-3, 0, -3));
+    let f_95 = cc_tricubic_fetch(jb_3 + vec3<i32>(0, -1, -3));
+    let f_96 = cc_tricubic_fetch(jb_3 + vec3<i32>(-1, -1, -3));
+    let f_97 = cc_tricubic_fetch(jb_3 + vec3<i32>(-2, -1, -3));
+    let f_98 = cc_tricubic_fetch(jb_3 + vec3<i32>(-3, -1, -3));
+    let f_99 = cc_tricubic_fetch(jb_3 + vec3<i32>(0, -2, -3));
+    let f_100 = cc_tricubic_fetch(jb_3 + vec3<i32>(-1, -2, -3));
+    let f_101 = cc_tricubic_fetch(jb_3 + vec3<i32>(-2, -2, -3));
+    let f_102 = cc_tricubic_fetch(jb_3 + vec3<i32>(-3, -2, -3));
+    let f_103 = cc_tricubic_fetch(jb_3 + vec3<i32>(0, -3, -3));
+    let f_104 = cc_tricubic_fetch(jb_3 + vec3<i32>(-1, -3, -3));
+    let f_105 = cc_tricubic_fetch(jb_3 + vec3<i32>(-2, -3, -3));
+    let f_106 = cc_tricubic_fetch(jb_3 + vec3<i32>(-3, -3, -3));
+    let c_107 = wt_6 * f_43 + wt_8 * f_44 + wt_11 * f_45 + wt_14 * f_46;
+    let c_108 = wt_6 * f_47 + wt_8 * f_48 + wt_11 * f_49 + wt_14 * f_50;
+    let c_109 = wt_6 * f_51 + wt_8 * f_52 + wt_11 * f_53 + wt_14 * f_54;
+    let c_110 = wt_6 * f_55 + wt_8 * f_56 + wt_11 * f_57 + wt_14 * f_58;
+    let c_111 = wt_6 * f_59 + wt_8 * f_60 + wt_11 * f_61 + wt_14 * f_62;
+    let c_112 = wt_6 * f_63 + wt_8 * f_64 + wt_11 * f_65 + wt_14 * f_66;
+    let c_113 = wt_6 * f_67 + wt_8 * f_68 + wt_11 * f_69 + wt_14 * f_70;
+    let c_114 = wt_6 * f_71 + wt_8 * f_72 + wt_11 * f_73 + wt_14 * f_74;
+    let c_115 = wt_6 * f_75 + wt_8 * f_76 + wt_11 * f_77 + wt_14 * f_78;
+    let c_116 = wt_6 * f_79 + wt_8 * f_80 + wt_11 * f_81 + wt_14 * f_82;
+    let c_117 = wt_6 * f_83 + wt_8 * f_84 + wt_11 * f_85 + wt_14 * f_86;
+    let c_118 = wt_6 * f_87 + wt_8 * f_88 + wt_11 * f_89 + wt_14 * f_90;
+    let c_119 = wt_6 * f_91 + wt_8 * f_92 + wt_11 * f_93 + wt_14 * f_94;
+    let c_120 = wt_6 * f_95 + wt_8 * f_96 + wt_11 * f_97 + wt_14 * f_98;
+    let c_121 = wt_6 * f_99 + wt_8 * f_100 + wt_11 * f_101 + wt_14 * f_102;
+    let c_122 = wt_6 * f_103 + wt_8 * f_104 + wt_11 * f_105 + wt_14 * f_106;
+    let c_123 = dwt_7 * f_43 + dwt_9 * f_44 + dwt_12 * f_45 + dwt_15 * f_46;
+    let c_124 = dwt_7 * f_47 + dwt_9 * f_48 + dwt_12 * f_49 + dwt_15 * f_50;
+    let c_125 = dwt_7 * f_51 + dwt_9 * f_52 + dwt_12 * f_53 + dwt_15 * f_54;
+    let c_126 = dwt_7 * f_55 + dwt_9 * f_56 + dwt_12 * f_57 + dwt_15 * f_58;
+    let c_127 = dwt_7 * f_59 + dwt_9 * f_60 + dwt_12 * f_61 + dwt_15 * f_62;
+    let c_128 = dwt_7 * f_63 + dwt_9 * f_64 + dwt_12 * f_65 + dwt_15 * f_66;
+    let c_129 = dwt_7 * f_67 + dwt_9 * f_68 + dwt_12 * f_69 + dwt_15 * f_70;
+    let c_130 = dwt_7 * f_71 + dwt_9 * f_72 + dwt_12 * f_73 + dwt_15 * f_74;
+    let c_131 = dwt_7 * f_75 + dwt_9 * f_76 + dwt_12 * f_77 + dwt_15 * f_78;
+    let c_132 = dwt_7 * f_79 + dwt_9 * f_80 + dwt_12 * f_81 + dwt_15 * f_82;
+    let c_133 = dwt_7 * f_83 + dwt_9 * f_84 + dwt_12 * f_85 + dwt_15 * f_86;
+    let c_134 = dwt_7 * f_87 + dwt_9 * f_88 + dwt_12 * f_89 + dwt_15 * f_90;
+    let c_135 = dwt_7 * f_91 + dwt_9 * f_92 + dwt_12 * f_93 + dwt_15 * f_94;
+    let c_136 = dwt_7 * f_95 + dwt_9 * f_96 + dwt_12 * f_97 + dwt_15 * f_98;
+    let c_137 = dwt_7 * f_99 + dwt_9 * f_100 + dwt_12 * f_101 + dwt_15 * f_102;
+    let c_138 = dwt_7 * f_103 + dwt_9 * f_104 + dwt_12 * f_105 + dwt_15 * f_106;
+    let c_139 = t_2.x * f_43 + ddwt_10 * f_44 + ddwt_13 * f_45 + ddwt_16 * f_46;
+    let c_140 = t_2.x * f_47 + ddwt_10 * f_48 + ddwt_13 * f_49 + ddwt_16 * f_50;
+    let c_141 = t_2.x * f_51 + ddwt_10 * f_52 + ddwt_13 * f_53 + ddwt_16 * f_54;
+    let c_142 = t_2.x * f_55 + ddwt_10 * f_56 + ddwt_13 * f_57 + ddwt_16 * f_58;
+    let c_143 = t_2.x * f_59 + ddwt_10 * f_60 + ddwt_13 * f_61 + ddwt_16 * f_62;
+    let c_144 = t_2.x * f_63 + ddwt_10 * f_64 + ddwt_13 * f_65 + ddwt_16 * f_66;
+    let c_145 = t_2.x * f_67 + ddwt_10 * f_68 + ddwt_13 * f_69 + ddwt_16 * f_70;
+    let c_146 = t_2.x * f_71 + ddwt_10 * f_72 + ddwt_13 * f_73 + ddwt_16 * f_74;
+    let c_147 = t_2.x * f_75 + ddwt_10 * f_76 + ddwt_13 * f_77 + ddwt_16 * f_78;
+    let c_148 = t_2.x * f_79 + ddwt_10 * f_80 + ddwt_13 * f_81 + ddwt_16 * f_82;
+    let c_149 = t_2.x * f_83 + ddwt_10 * f_84 + ddwt_13 * f_85 + ddwt_16 * f_86;
+    let c_150 = t_2.x * f_87 + ddwt_10 * f_88 + ddwt_13 * f_89 + ddwt_16 * f_90;
+    let c_151 = t_2.x * f_91 + ddwt_10 * f_92 + ddwt_13 * f_93 + ddwt_16 * f_94;
+    let c_152 = t_2.x * f_95 + ddwt_10 * f_96 + ddwt_13 * f_97 + ddwt_16 * f_98;
+    let c_153 = t_2.x * f_99 + ddwt_10 * f_100 + ddwt_13 * f_101 + ddwt_16 * f_102;
+    let c_154 = t_2.x * f_103 + ddwt_10 * f_104 + ddwt_13 * f_105 + ddwt_16 * f_106;
+    let c_155 = wt_19 * c_107 + wt_21 * c_108 + wt_24 * c_109 + wt_27 * c_110;
+    let c_156 = wt_19 * c_111 + wt_21 * c_112 + wt_24 * c_113 + wt_27 * c_114;
+    let c_157 = wt_19 * c_115 + wt_21 * c_116 + wt_24 * c_117 + wt_27 * c_118;
+    let c_158 = wt_19 * c_119 + wt_21 * c_120 + wt_24 * c_121 + wt_27 * c_122;
+    let c_159 = dwt_20 * c_107 + dwt_22 * c_108 + dwt_25 * c_109 + dwt_28 * c_110;
+    let c_160 = dwt_20 * c_111 + dwt_22 * c_112 + dwt_25 * c_113 + dwt_28 * c_114;
+    let c_161 = dwt_20 * c_115 + dwt_22 * c_116 + dwt_25 * c_117 + dwt_28 * c_118;
+    let c_162 = dwt_20 * c_119 + dwt_22 * c_120 + dwt_25 * c_121 + dwt_28 * c_122;
+    let c_163 = t_2.y * c_107 + ddwt_23 * c_108 + ddwt_26 * c_109 + ddwt_29 * c_110;
+    let c_164 = t_2.y * c_111 + ddwt_23 * c_112 + ddwt_26 * c_113 + ddwt_29 * c_114;
+    let c_165 = t_2.y * c_115 + ddwt_23 * c_116 + ddwt_26 * c_117 + ddwt_29 * c_118;
+    let c_166 = t_2.y * c_119 + ddwt_23 * c_120 + ddwt_26 * c_121 + ddwt_29 * c_122;
+    let c_167 = wt_19 * c_123 + wt_21 * c_124 + wt_24 * c_125 + wt_27 * c_126;
+    let c_168 = wt_19 * c_127 + wt_21 * c_128 + wt_24 * c_129 + wt_27 * c_130;
+    let c_169 = wt_19 * c_131 + wt_21 * c_132 + wt_24 * c_133 + wt_27 * c_134;
+    let c_170 = wt_19 * c_135 + wt_21 * c_136 + wt_24 * c_137 + wt_27 * c_138;
+    let c_171 = dwt_20 * c_123 + dwt_22 * c_124 + dwt_25 * c_125 + dwt_28 * c_126;
+    let c_172 = dwt_20 * c_127 + dwt_22 * c_128 + dwt_25 * c_129 + dwt_28 * c_130;
+    let c_173 = dwt_20 * c_131 + dwt_22 * c_132 + dwt_25 * c_133 + dwt_28 * c_134;
+    let c_174 = dwt_20 * c_135 + dwt_22 * c_136 + dwt_25 * c_137 + dwt_28 * c_138;
+    let c_175 = wt_19 * c_139 + wt_21 * c_140 + wt_24 * c_141 + wt_27 * c_142;
+    let c_176 = wt_19 * c_143 + wt_21 * c_144 + wt_24 * c_145 + wt_27 * c_146;
+    let c_177 = wt_19 * c_147 + wt_21 * c_148 + wt_24 * c_149 + wt_27 * c_150;
+    let c_178 = wt_19 * c_151 + wt_21 * c_152 + wt_24 * c_153 + wt_27 * c_154;
+    let c_179 = wt_32 * c_155 + wt_34 * c_156 + wt_37 * c_157 + wt_40 * c_158;
+    let c_180 = dwt_33 * c_155 + dwt_35 * c_156 + dwt_38 * c_157 + dwt_41 * c_158;
+    let c_181 = t_2.z * c_155 + ddwt_36 * c_156 + ddwt_39 * c_157 + ddwt_42 * c_158;
+    let c_182 = wt_32 * c_159 + wt_34 * c_160 + wt_37 * c_161 + wt_40 * c_162;
+    let c_183 = dwt_33 * c_159 + dwt_35 * c_160 + dwt_38 * c_161 + dwt_41 * c_162;
+    let c_184 = wt_32 * c_163 + wt_34 * c_164 + wt_37 * c_165 + wt_40 * c_166;
+    let c_185 = wt_32 * c_167 + wt_34 * c_168 + wt_37 * c_169 + wt_40 * c_170;
+    let c_186 = dwt_33 * c_167 + dwt_35 * c_168 + dwt_38 * c_169 + dwt_41 * c_170;
+    let c_187 = wt_32 * c_171 + wt_34 * c_172 + wt_37 * c_173 + wt_40 * c_174;
+    let c_188 = wt_32 * c_175 + wt_34 * c_176 + wt_37 * c_177 + wt_40 * c_178;
+    let val_189 = c_179;
+    let gx_190 = vec3<f32>(c_185, c_182, c_180);
+    return cc_tricubic_Hessian(val_189, gx_190, mat3x3<f32>(vec3<f32>(c_188, c_187, c_186), vec3<f32>(c_187, c_184, c_183), vec3<f32>(c_186, c_183, c_181)));
 }
 // Kernels. Bindings for the outputs follow the sample bindings.
 @group(0) @binding(2) var<storage, read_write> cc_tricubic_out: array<f32>;

@@ -2,7 +2,7 @@
 // boxforge filter `cc_trilinear` on the cc lattice (3D), layout `bricked`, variant `naive`.
 // Point location: fold + sorting network + plane tests. Fetches per eval: 8. Vector adds for fetch positions: 7 (a matrix-vector product per fetch: 24).
 // Evaluation form: dense (static ops eval/eval_grad of each form: dense 40/66). Fetch bounds: clamp.
-// Entry functions: cc_trilinear_fetch, cc_trilinear_eval, cc_trilinear_eval_grad, cc_trilinear_prefilter_main, cc_trilinear_minmax_main.
+// Entry functions: cc_trilinear_fetch, cc_trilinear_eval, cc_trilinear_eval_grad, cc_trilinear_eval_hessian (form dense), cc_trilinear_prefilter_main, cc_trilinear_minmax_main.
 
 // Bricked layout: the lattice texels cut into bricks of B^3, each held in a
 // slot of the pool texture with a halo of h texels on every side (h is at
@@ -95,6 +95,14 @@ fn cc_trilinear_cube_bounds(z: vec3<i32>) -> vec2<f32> {
     return vec2<f32>(lo_25, hi_26);
 }
 
+/// Value, gradient and Hessian (symmetric, d2/dp_i dp_j in column j, row i)
+/// from one set of fetches.
+struct cc_trilinear_Hessian {
+    value: f32,
+    gradient: vec3<f32>,
+    hessian: mat3x3<f32>,
+}
+
 /// The spline at p (lattice coordinates embedded in Z^3).
 fn cc_trilinear_eval(p: vec3<f32>) -> f32 {
     let brick_page = cc_trilinear_page(p);
@@ -184,6 +192,74 @@ fn cc_trilinear_eval_grad(p: vec3<f32>) -> vec4<f32> {
     let gw_12 = vec3<f32>(g_11.x, g_11.y, g_11.z);
     let gx_13 = vec3<f32>(m_5) * gw_12.x + vec3<f32>(m_6) * gw_12.y + vec3<f32>(m_7) * gw_12.z;
     return vec4<f32>(v_10, gx_13);
+}
+
+/// Value, gradient and Hessian from the same fetches.
+fn cc_trilinear_eval_hessian(p: vec3<f32>) -> cc_trilinear_Hessian {
+    let brick_page = cc_trilinear_page(p);
+    let c_0 = 2.0 * round(p * 0.5);
+    let d_1 = p - c_0;
+    let sg_2 = select(vec3<i32>(-1), vec3<i32>(1), d_1 >= vec3<f32>(0.0));
+    let base_3 = vec3<i32>(c_0);
+    var w_4 = abs(d_1);
+    var m_5 = vec3<i32>(sg_2.x, 0, 0);
+    var m_6 = vec3<i32>(0, sg_2.y, 0);
+    var m_7 = vec3<i32>(0, 0, sg_2.z);
+    if (w_4.x < w_4.y) {
+        w_4 = w_4.yxz;
+        let t = m_5;
+        m_5 = m_6;
+        m_6 = t;
+    }
+    if (w_4.y < w_4.z) {
+        w_4 = w_4.xzy;
+        let t = m_6;
+        m_6 = m_7;
+        m_7 = t;
+    }
+    if (w_4.x < w_4.y) {
+        w_4 = w_4.yxz;
+        let t = m_5;
+        m_5 = m_6;
+        m_6 = t;
+    }
+    var f: array<f32, 8>;
+    for (var k = 0; k < 8; k++) {
+        let q = cc_trilinear_OFFSETS[0 * 8 + k];
+        f[k] = cc_trilinear_fetch_in(brick_page, base_3 + m_5 * q.x + m_6 * q.y + m_7 * q.z);
+    }
+    var bt_8 = array<f32, 8>();
+    for (var e = 0; e < 27; e++) {
+        let t = cc_trilinear_W0[e];
+        bt_8[i32(t.x)] += t.z * f[i32(t.y)];
+    }
+    let u_9 = vec3<f32>(w_4.x, w_4.y, w_4.z);
+    let h_10 = bt_8[3] * u_9.z + bt_8[0];
+    let h_11 = bt_8[6] * u_9.z + bt_8[2];
+    let h_12 = bt_8[6] * u_9.y + bt_8[3];
+    let h_13 = h_11 * u_9.y + h_10;
+    let h_14 = bt_8[5] * u_9.z + bt_8[1];
+    let h_15 = bt_8[7] * u_9.z + bt_8[4];
+    let h_16 = bt_8[7] * u_9.y + bt_8[5];
+    let h_17 = h_15 * u_9.y + h_14;
+    let h_18 = bt_8[7] * u_9.x + bt_8[6];
+    let h_19 = h_15 * u_9.x + h_11;
+    let h_20 = h_16 * u_9.x + h_12;
+    let h_21 = h_17 * u_9.x + h_13;
+    let v_22 = h_21;
+    let g_23 = vec3<f32>(h_17, h_19, h_20);
+    let gw_24 = vec3<f32>(g_23.x, g_23.y, g_23.z);
+    let gx_25 = vec3<f32>(m_5) * gw_24.x + vec3<f32>(m_6) * gw_24.y + vec3<f32>(m_7) * gw_24.z;
+    let hc_26 = vec3<f32>(0.0, h_15, h_16);
+    let hc_27 = vec3<f32>(h_15, 0.0, h_18);
+    let hc_28 = vec3<f32>(h_16, h_18, 0.0);
+    let hw_29 = vec3<f32>(hc_26.x, hc_26.y, hc_26.z);
+    let hw_30 = vec3<f32>(hc_27.x, hc_27.y, hc_27.z);
+    let hw_31 = vec3<f32>(hc_28.x, hc_28.y, hc_28.z);
+    let hm_32 = mat3x3<f32>(hw_29, hw_30, hw_31);
+    let mf_33 = mat3x3<f32>(vec3<f32>(m_5), vec3<f32>(m_6), vec3<f32>(m_7));
+    let hx_34 = mf_33 * hm_32 * transpose(mf_33);
+    return cc_trilinear_Hessian(v_22, gx_25, hx_34);
 }
 // Kernels. Bindings for the outputs follow the sample bindings.
 @group(0) @binding(3) var<storage, read_write> cc_trilinear_out: array<f32>;

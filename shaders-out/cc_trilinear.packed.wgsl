@@ -2,7 +2,7 @@
 // boxforge filter `cc_trilinear` on the cc lattice (3D), layout `packed`, variant `fast`.
 // Point location: tensor product: per coset floor and fraction, no cell location. Fetches per eval: 8. Vector adds for fetch positions: 7 (a matrix-vector product per fetch: 7).
 // Evaluation form: factored (static ops eval/eval_grad of each form: factored 34/60, power 52/65, ridge 84/142, bb 52/65, dense 64/90). Fetch bounds: clamp.
-// Entry functions: cc_trilinear_fetch, cc_trilinear_eval, cc_trilinear_eval_grad, cc_trilinear_prefilter_main, cc_trilinear_minmax_main.
+// Entry functions: cc_trilinear_fetch, cc_trilinear_eval, cc_trilinear_eval_grad, cc_trilinear_eval_hessian (form power), cc_trilinear_prefilter_main, cc_trilinear_minmax_main.
 
 // Coset-packed layout: one word per sample, the cosets of 2Z^3 in the
 // lattice (8 cosets) tiled in one r32float texture. Sample j lives in
@@ -68,6 +68,14 @@ fn cc_trilinear_cube_bounds(z: vec3<i32>) -> vec2<f32> {
     return vec2<f32>(lo_22, hi_23);
 }
 
+/// Value, gradient and Hessian (symmetric, d2/dp_i dp_j in column j, row i)
+/// from one set of fetches.
+struct cc_trilinear_Hessian {
+    value: f32,
+    gradient: vec3<f32>,
+    hessian: mat3x3<f32>,
+}
+
 /// The spline at p (lattice coordinates embedded in Z^3).
 fn cc_trilinear_eval(p: vec3<f32>) -> f32 {
     let s_0 = p + 1.0;
@@ -131,6 +139,83 @@ fn cc_trilinear_eval_grad(p: vec3<f32>) -> vec4<f32> {
     let c_31 = t_2.z * c_25 + wt_6 * c_26;
     let c_32 = t_2.z * c_27 + wt_6 * c_28;
     return vec4<f32>(c_29, c_32, c_31, c_30);
+}
+
+/// Value, gradient and Hessian from the same fetches.
+fn cc_trilinear_eval_hessian(p: vec3<f32>) -> cc_trilinear_Hessian {
+    let c_0 = 2.0 * round(p * 0.5);
+    let d_1 = p - c_0;
+    let sg_2 = select(vec3<i32>(-1), vec3<i32>(1), d_1 >= vec3<f32>(0.0));
+    let base_3 = vec3<i32>(c_0);
+    let w_4 = abs(d_1);
+    let m_5 = vec3<i32>(sg_2.x, 0, 0);
+    let m_6 = vec3<i32>(0, sg_2.y, 0);
+    let m_7 = vec3<i32>(0, 0, sg_2.z);
+    let sw_8 = w_4.x < w_4.y;
+    let w_9 = select(w_4, w_4.yxz, sw_8);
+    let m_10 = select(m_5, m_6, sw_8);
+    let m_11 = select(m_6, m_5, sw_8);
+    let sw_12 = w_9.y < w_9.z;
+    let w_13 = select(w_9, w_9.xzy, sw_12);
+    let m_14 = select(m_11, m_7, sw_12);
+    let m_15 = select(m_7, m_11, sw_12);
+    let sw_16 = w_13.x < w_13.y;
+    let w_17 = select(w_13, w_13.yxz, sw_16);
+    let m_18 = select(m_10, m_14, sw_16);
+    let m_19 = select(m_14, m_10, sw_16);
+    let f_20 = cc_trilinear_fetch(base_3);
+    let j_21 = base_3 + m_18;
+    let f_22 = cc_trilinear_fetch(j_21);
+    let j_23 = j_21 + m_19;
+    let f_24 = cc_trilinear_fetch(j_23);
+    let j_25 = j_23 - m_18;
+    let f_26 = cc_trilinear_fetch(j_25);
+    let j_27 = j_25 + m_15;
+    let f_28 = cc_trilinear_fetch(j_27);
+    let j_29 = j_27 - m_19;
+    let f_30 = cc_trilinear_fetch(j_29);
+    let j_31 = j_29 + m_18;
+    let f_32 = cc_trilinear_fetch(j_31);
+    let j_33 = j_31 + m_19;
+    let f_34 = cc_trilinear_fetch(j_33);
+    let s_35 = f_20 - f_22;
+    let s_36 = f_20 - f_26;
+    let s_37 = f_26 - f_24;
+    let s_38 = f_30 - f_32;
+    let s_39 = s_35 - s_37;
+    let b_40 = -s_35;
+    let b_41 = -s_36;
+    let b_42 = -f_20 + f_30;
+    let b_43 = s_35 - s_38;
+    let b_44 = -f_30 + f_28 + s_36;
+    let b_45 = -f_28 + f_34 + s_38 - s_39;
+    let u_46 = vec3<f32>(w_17.x, w_17.y, w_17.z);
+    let h_47 = b_42 * u_46.z + f_20;
+    let h_48 = b_44 * u_46.z + b_41;
+    let h_49 = b_44 * u_46.y + b_42;
+    let h_50 = h_48 * u_46.y + h_47;
+    let h_51 = b_43 * u_46.z + b_40;
+    let h_52 = b_45 * u_46.z + s_39;
+    let h_53 = b_45 * u_46.y + b_43;
+    let h_54 = h_52 * u_46.y + h_51;
+    let h_55 = b_45 * u_46.x + b_44;
+    let h_56 = h_52 * u_46.x + h_48;
+    let h_57 = h_53 * u_46.x + h_49;
+    let h_58 = h_54 * u_46.x + h_50;
+    let v_59 = h_58;
+    let g_60 = vec3<f32>(h_54, h_56, h_57);
+    let gw_61 = vec3<f32>(g_60.x, g_60.y, g_60.z);
+    let gx_62 = vec3<f32>(m_18) * gw_61.x + vec3<f32>(m_19) * gw_61.y + vec3<f32>(m_15) * gw_61.z;
+    let hc_63 = vec3<f32>(0.0, h_52, h_53);
+    let hc_64 = vec3<f32>(h_52, 0.0, h_55);
+    let hc_65 = vec3<f32>(h_53, h_55, 0.0);
+    let hw_66 = vec3<f32>(hc_63.x, hc_63.y, hc_63.z);
+    let hw_67 = vec3<f32>(hc_64.x, hc_64.y, hc_64.z);
+    let hw_68 = vec3<f32>(hc_65.x, hc_65.y, hc_65.z);
+    let hm_69 = mat3x3<f32>(hw_66, hw_67, hw_68);
+    let mf_70 = mat3x3<f32>(vec3<f32>(m_18), vec3<f32>(m_19), vec3<f32>(m_15));
+    let hx_71 = mf_70 * hm_69 * transpose(mf_70);
+    return cc_trilinear_Hessian(v_59, gx_62, hx_71);
 }
 // Kernels. Bindings for the outputs follow the sample bindings.
 @group(0) @binding(2) var<storage, read_write> cc_trilinear_out: array<f32>;

@@ -2,7 +2,7 @@
 // boxforge filter `cc_triquadratic` on the cc lattice (3D), layout `bricked-packed`, variant `naive`.
 // Point location: fold + sorting network + plane tests. Fetches per eval: 27. Vector adds for fetch positions: 81 (a matrix-vector product per fetch: 81).
 // Evaluation form: dense (static ops eval/eval_grad of each form: dense 124/312). Fetch bounds: clamp.
-// Entry functions: cc_triquadratic_fetch, cc_triquadratic_eval, cc_triquadratic_eval_grad, cc_triquadratic_prefilter_main, cc_triquadratic_minmax_main.
+// Entry functions: cc_triquadratic_fetch, cc_triquadratic_eval, cc_triquadratic_eval_grad, cc_triquadratic_eval_hessian (form dense), cc_triquadratic_prefilter_main, cc_triquadratic_minmax_main.
 
 // Bricked, coset-packed layout: the lattice texels cut into bricks of
 // B^3 (B even), each held in a slot of the pool with a halo of h texels on
@@ -377,6 +377,14 @@ fn cc_triquadratic_cube_bounds(z: vec3<i32>) -> vec2<f32> {
     return vec2<f32>(lo_303, hi_304);
 }
 
+/// Value, gradient and Hessian (symmetric, d2/dp_i dp_j in column j, row i)
+/// from one set of fetches.
+struct cc_triquadratic_Hessian {
+    value: f32,
+    gradient: vec3<f32>,
+    hessian: mat3x3<f32>,
+}
+
 /// The spline at p (lattice coordinates embedded in Z^3).
 fn cc_triquadratic_eval(p: vec3<f32>) -> f32 {
     let brick_page = cc_triquadratic_page(p);
@@ -498,6 +506,175 @@ fn cc_triquadratic_eval_grad(p: vec3<f32>) -> vec4<f32> {
     let gw_27 = select(gw_26, gw_24, ci == 3);
     let gx_28 = vec3<f32>(m_5) * gw_27.x + vec3<f32>(m_6) * gw_27.y + vec3<f32>(m_7) * gw_27.z;
     return vec4<f32>(v_19, gx_28);
+}
+
+/// Value, gradient and Hessian from the same fetches.
+fn cc_triquadratic_eval_hessian(p: vec3<f32>) -> cc_triquadratic_Hessian {
+    let brick_page = cc_triquadratic_page(p);
+    let c_0 = 2.0 * round(p * 0.5);
+    let d_1 = p - c_0;
+    let sg_2 = select(vec3<i32>(-1), vec3<i32>(1), d_1 >= vec3<f32>(0.0));
+    let base_3 = vec3<i32>(c_0);
+    var w_4 = abs(d_1);
+    var m_5 = vec3<i32>(sg_2.x, 0, 0);
+    var m_6 = vec3<i32>(0, sg_2.y, 0);
+    var m_7 = vec3<i32>(0, 0, sg_2.z);
+    if (w_4.x < w_4.y) {
+        w_4 = w_4.yxz;
+        let t = m_5;
+        m_5 = m_6;
+        m_6 = t;
+    }
+    if (w_4.y < w_4.z) {
+        w_4 = w_4.xzy;
+        let t = m_6;
+        m_6 = m_7;
+        m_7 = t;
+    }
+    if (w_4.x < w_4.y) {
+        w_4 = w_4.yxz;
+        let t = m_5;
+        m_5 = m_6;
+        m_6 = t;
+    }
+    var ci = 0;
+    if ((-w_4.x <= -0.5 + 1e-6) && (w_4.y <= 0.5 + 1e-6)) { ci = 1; }
+    if ((-w_4.y <= -0.5 + 1e-6) && (w_4.z <= 0.5 + 1e-6)) { ci = 2; }
+    if ((-w_4.z <= -0.5 + 1e-6)) { ci = 3; }
+    var f: array<f32, 27>;
+    for (var k = 0; k < 27; k++) {
+        let q = cc_triquadratic_OFFSETS[ci * 27 + k];
+        f[k] = cc_triquadratic_fetch_in(brick_page, base_3 + m_5 * q.x + m_6 * q.y + m_7 * q.z);
+    }
+    var bt_8 = array<f32, 27>();
+    for (var e = 0; e < 343; e++) {
+        let t = cc_triquadratic_W0[e];
+        bt_8[i32(t.x)] += t.z * f[i32(t.y)];
+    }
+    let u_9 = vec3<f32>(w_4.x, w_4.y, w_4.z) + vec3<f32>(0.5, 0.5, 0.5);
+    let u_10 = vec3<f32>(w_4.x, w_4.y, w_4.z) + vec3<f32>(-0.5, 0.5, 0.5);
+    let u_11 = select(u_9, u_10, ci == 1);
+    let u_12 = vec3<f32>(w_4.x, w_4.y, w_4.z) + vec3<f32>(-0.5, -0.5, 0.5);
+    let u_13 = select(u_11, u_12, ci == 2);
+    let u_14 = vec3<f32>(w_4.x, w_4.y, w_4.z) + vec3<f32>(-0.5, -0.5, -0.5);
+    let u_15 = select(u_13, u_14, ci == 3);
+    let h_16 = bt_8[9] * u_15.z + bt_8[3];
+    let h_17 = bt_8[9] + bt_8[9];
+    let h_18 = bt_8[9] * u_15.z + h_16;
+    let h_19 = h_16 * u_15.z + bt_8[0];
+    let h_20 = bt_8[16] * u_15.z + bt_8[8];
+    let h_21 = bt_8[16] + bt_8[16];
+    let h_22 = bt_8[16] * u_15.z + h_20;
+    let h_23 = h_20 * u_15.z + bt_8[2];
+    let h_24 = bt_8[22] * u_15.z + bt_8[15];
+    let h_25 = bt_8[22] + bt_8[22];
+    let h_26 = bt_8[22] * u_15.z + h_24;
+    let h_27 = h_24 * u_15.z + bt_8[7];
+    let h_28 = h_25 * u_15.y + h_21;
+    let h_29 = h_26 * u_15.y + h_22;
+    let h_30 = h_27 * u_15.y + h_23;
+    let h_31 = h_27 + h_27;
+    let h_32 = h_26 * u_15.y + h_29;
+    let h_33 = h_28 * u_15.y + h_17;
+    let h_34 = h_27 * u_15.y + h_30;
+    let h_35 = h_29 * u_15.y + h_18;
+    let h_36 = h_30 * u_15.y + h_19;
+    let h_37 = bt_8[14] * u_15.z + bt_8[6];
+    let h_38 = bt_8[14] + bt_8[14];
+    let h_39 = bt_8[14] * u_15.z + h_37;
+    let h_40 = h_37 * u_15.z + bt_8[1];
+    let h_41 = bt_8[21] * u_15.z + bt_8[13];
+    let h_42 = bt_8[21] + bt_8[21];
+    let h_43 = bt_8[21] * u_15.z + h_41;
+    let h_44 = h_41 * u_15.z + bt_8[5];
+    let h_45 = bt_8[25] * u_15.z + bt_8[20];
+    let h_46 = bt_8[25] + bt_8[25];
+    let h_47 = bt_8[25] * u_15.z + h_45;
+    let h_48 = h_45 * u_15.z + bt_8[12];
+    let h_49 = h_46 * u_15.y + h_42;
+    let h_50 = h_47 * u_15.y + h_43;
+    let h_51 = h_48 * u_15.y + h_44;
+    let h_52 = h_48 + h_48;
+    let h_53 = h_47 * u_15.y + h_50;
+    let h_54 = h_49 * u_15.y + h_38;
+    let h_55 = h_48 * u_15.y + h_51;
+    let h_56 = h_50 * u_15.y + h_39;
+    let h_57 = h_51 * u_15.y + h_40;
+    let h_58 = bt_8[19] * u_15.z + bt_8[11];
+    let h_59 = bt_8[19] + bt_8[19];
+    let h_60 = bt_8[19] * u_15.z + h_58;
+    let h_61 = h_58 * u_15.z + bt_8[4];
+    let h_62 = bt_8[24] * u_15.z + bt_8[18];
+    let h_63 = bt_8[24] + bt_8[24];
+    let h_64 = bt_8[24] * u_15.z + h_62;
+    let h_65 = h_62 * u_15.z + bt_8[10];
+    let h_66 = bt_8[26] * u_15.z + bt_8[23];
+    let h_67 = bt_8[26] + bt_8[26];
+    let h_68 = bt_8[26] * u_15.z + h_66;
+    let h_69 = h_66 * u_15.z + bt_8[17];
+    let h_70 = h_67 * u_15.y + h_63;
+    let h_71 = h_68 * u_15.y + h_64;
+    let h_72 = h_69 * u_15.y + h_65;
+    let h_73 = h_69 + h_69;
+    let h_74 = h_68 * u_15.y + h_71;
+    let h_75 = h_70 * u_15.y + h_59;
+    let h_76 = h_69 * u_15.y + h_72;
+    let h_77 = h_71 * u_15.y + h_60;
+    let h_78 = h_72 * u_15.y + h_61;
+    let h_79 = h_73 * u_15.x + h_52;
+    let h_80 = h_74 * u_15.x + h_53;
+    let h_81 = h_75 * u_15.x + h_54;
+    let h_82 = h_76 * u_15.x + h_55;
+    let h_83 = h_77 * u_15.x + h_56;
+    let h_84 = h_78 * u_15.x + h_57;
+    let h_85 = h_78 + h_78;
+    let h_86 = h_76 * u_15.x + h_82;
+    let h_87 = h_77 * u_15.x + h_83;
+    let h_88 = h_79 * u_15.x + h_31;
+    let h_89 = h_80 * u_15.x + h_32;
+    let h_90 = h_81 * u_15.x + h_33;
+    let h_91 = h_78 * u_15.x + h_84;
+    let h_92 = h_82 * u_15.x + h_34;
+    let h_93 = h_83 * u_15.x + h_35;
+    let h_94 = h_84 * u_15.x + h_36;
+    let v_95 = h_94;
+    let g_96 = vec3<f32>(h_91, h_92, h_93);
+    let gw_97 = vec3<f32>(g_96.x, g_96.y, g_96.z);
+    let gw_98 = vec3<f32>(g_96.x, g_96.y, g_96.z);
+    let gw_99 = vec3<f32>(g_96.x, g_96.y, g_96.z);
+    let gw_100 = vec3<f32>(g_96.x, g_96.y, g_96.z);
+    let gw_101 = select(gw_97, gw_98, ci == 1);
+    let gw_102 = select(gw_101, gw_99, ci == 2);
+    let gw_103 = select(gw_102, gw_100, ci == 3);
+    let gx_104 = vec3<f32>(m_5) * gw_103.x + vec3<f32>(m_6) * gw_103.y + vec3<f32>(m_7) * gw_103.z;
+    let hc_105 = vec3<f32>(h_85, h_86, h_87);
+    let hc_106 = vec3<f32>(h_86, h_88, h_89);
+    let hc_107 = vec3<f32>(h_87, h_89, h_90);
+    let hw_108 = vec3<f32>(hc_105.x, hc_105.y, hc_105.z);
+    let hw_109 = vec3<f32>(hc_105.x, hc_105.y, hc_105.z);
+    let hw_110 = vec3<f32>(hc_105.x, hc_105.y, hc_105.z);
+    let hw_111 = vec3<f32>(hc_105.x, hc_105.y, hc_105.z);
+    let hw_112 = select(hw_108, hw_109, ci == 1);
+    let hw_113 = select(hw_112, hw_110, ci == 2);
+    let hw_114 = select(hw_113, hw_111, ci == 3);
+    let hw_115 = vec3<f32>(hc_106.x, hc_106.y, hc_106.z);
+    let hw_116 = vec3<f32>(hc_106.x, hc_106.y, hc_106.z);
+    let hw_117 = vec3<f32>(hc_106.x, hc_106.y, hc_106.z);
+    let hw_118 = vec3<f32>(hc_106.x, hc_106.y, hc_106.z);
+    let hw_119 = select(hw_115, hw_116, ci == 1);
+    let hw_120 = select(hw_119, hw_117, ci == 2);
+    let hw_121 = select(hw_120, hw_118, ci == 3);
+    let hw_122 = vec3<f32>(hc_107.x, hc_107.y, hc_107.z);
+    let hw_123 = vec3<f32>(hc_107.x, hc_107.y, hc_107.z);
+    let hw_124 = vec3<f32>(hc_107.x, hc_107.y, hc_107.z);
+    let hw_125 = vec3<f32>(hc_107.x, hc_107.y, hc_107.z);
+    let hw_126 = select(hw_122, hw_123, ci == 1);
+    let hw_127 = select(hw_126, hw_124, ci == 2);
+    let hw_128 = select(hw_127, hw_125, ci == 3);
+    let hm_129 = mat3x3<f32>(hw_114, hw_121, hw_128);
+    let mf_130 = mat3x3<f32>(vec3<f32>(m_5), vec3<f32>(m_6), vec3<f32>(m_7));
+    let hx_131 = mf_130 * hm_129 * transpose(mf_130);
+    return cc_triquadratic_Hessian(v_95, gx_104, hx_131);
 }
 // Kernels. Bindings for the outputs follow the sample bindings.
 @group(0) @binding(3) var<storage, read_write> cc_triquadratic_out: array<f32>;

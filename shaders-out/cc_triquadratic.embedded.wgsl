@@ -2,7 +2,7 @@
 // boxforge filter `cc_triquadratic` on the cc lattice (3D), layout `embedded`, variant `fast`.
 // Point location: tensor product: per coset floor and fraction, no cell location. Fetches per eval: 27. Vector adds for fetch positions: 26 (a matrix-vector product per fetch: 26).
 // Evaluation form: factored (static ops eval/eval_grad of each form: factored 115/214, power 577/634, bb 577/634, dense 1083/1271). Fetch bounds: clamp.
-// Entry functions: cc_triquadratic_fetch, cc_triquadratic_eval, cc_triquadratic_eval_grad, cc_triquadratic_prefilter_main, cc_triquadratic_minmax_main.
+// Entry functions: cc_triquadratic_fetch, cc_triquadratic_eval, cc_triquadratic_eval_grad, cc_triquadratic_eval_hessian (form factored), cc_triquadratic_prefilter_main, cc_triquadratic_minmax_main.
 
 // Embedded layout: the lattice samples sit at their integer positions of a
 // Cartesian texture (|det G| texels per sample); other texels are unused.
@@ -339,6 +339,14 @@ fn cc_triquadratic_cube_bounds(z: vec3<i32>) -> vec2<f32> {
     return vec2<f32>(lo_303, hi_304);
 }
 
+/// Value, gradient and Hessian (symmetric, d2/dp_i dp_j in column j, row i)
+/// from one set of fetches.
+struct cc_triquadratic_Hessian {
+    value: f32,
+    gradient: vec3<f32>,
+    hessian: mat3x3<f32>,
+}
+
 /// The spline at p (lattice coordinates embedded in Z^3).
 fn cc_triquadratic_eval(p: vec3<f32>) -> f32 {
     let s_0 = p + 1.5;
@@ -483,6 +491,117 @@ fn cc_triquadratic_eval_grad(p: vec3<f32>) -> vec4<f32> {
     let c_78 = wt_17 * c_70 + wt_18 * c_71 + wt_20 * c_72;
     let c_79 = wt_17 * c_73 + wt_18 * c_74 + wt_20 * c_75;
     return vec4<f32>(c_76, c_79, c_78, c_77);
+}
+
+/// Value, gradient and Hessian from the same fetches.
+fn cc_triquadratic_eval_hessian(p: vec3<f32>) -> cc_triquadratic_Hessian {
+    let s_0 = p + 1.5;
+    let fl_1 = floor(s_0);
+    let t_2 = s_0 - fl_1;
+    let jb_3 = vec3<i32>(fl_1);
+    let tp_4 = t_2.x * t_2.x;
+    let wt_5 = 0.5 * tp_4;
+    let wt_6 = 0.5 + t_2.x - tp_4;
+    let dwt_7 = 1.0 - 2.0 * t_2.x;
+    let wt_8 = 0.5 - t_2.x + 0.5 * tp_4;
+    let dwt_9 = -1.0 + t_2.x;
+    let tp_10 = t_2.y * t_2.y;
+    let wt_11 = 0.5 * tp_10;
+    let wt_12 = 0.5 + t_2.y - tp_10;
+    let dwt_13 = 1.0 - 2.0 * t_2.y;
+    let wt_14 = 0.5 - t_2.y + 0.5 * tp_10;
+    let dwt_15 = -1.0 + t_2.y;
+    let tp_16 = t_2.z * t_2.z;
+    let wt_17 = 0.5 * tp_16;
+    let wt_18 = 0.5 + t_2.z - tp_16;
+    let dwt_19 = 1.0 - 2.0 * t_2.z;
+    let wt_20 = 0.5 - t_2.z + 0.5 * tp_16;
+    let dwt_21 = -1.0 + t_2.z;
+    let f_22 = cc_triquadratic_fetch(jb_3);
+    let f_23 = cc_triquadratic_fetch(jb_3 + vec3<i32>(-1, 0, 0));
+    let f_24 = cc_triquadratic_fetch(jb_3 + vec3<i32>(-2, 0, 0));
+    let f_25 = cc_triquadratic_fetch(jb_3 + vec3<i32>(0, -1, 0));
+    let f_26 = cc_triquadratic_fetch(jb_3 + vec3<i32>(-1, -1, 0));
+    let f_27 = cc_triquadratic_fetch(jb_3 + vec3<i32>(-2, -1, 0));
+    let f_28 = cc_triquadratic_fetch(jb_3 + vec3<i32>(0, -2, 0));
+    let f_29 = cc_triquadratic_fetch(jb_3 + vec3<i32>(-1, -2, 0));
+    let f_30 = cc_triquadratic_fetch(jb_3 + vec3<i32>(-2, -2, 0));
+    let f_31 = cc_triquadratic_fetch(jb_3 + vec3<i32>(0, 0, -1));
+    let f_32 = cc_triquadratic_fetch(jb_3 + vec3<i32>(-1, 0, -1));
+    let f_33 = cc_triquadratic_fetch(jb_3 + vec3<i32>(-2, 0, -1));
+    let f_34 = cc_triquadratic_fetch(jb_3 + vec3<i32>(0, -1, -1));
+    let f_35 = cc_triquadratic_fetch(jb_3 + vec3<i32>(-1, -1, -1));
+    let f_36 = cc_triquadratic_fetch(jb_3 + vec3<i32>(-2, -1, -1));
+    let f_37 = cc_triquadratic_fetch(jb_3 + vec3<i32>(0, -2, -1));
+    let f_38 = cc_triquadratic_fetch(jb_3 + vec3<i32>(-1, -2, -1));
+    let f_39 = cc_triquadratic_fetch(jb_3 + vec3<i32>(-2, -2, -1));
+    let f_40 = cc_triquadratic_fetch(jb_3 + vec3<i32>(0, 0, -2));
+    let f_41 = cc_triquadratic_fetch(jb_3 + vec3<i32>(-1, 0, -2));
+    let f_42 = cc_triquadratic_fetch(jb_3 + vec3<i32>(-2, 0, -2));
+    let f_43 = cc_triquadratic_fetch(jb_3 + vec3<i32>(0, -1, -2));
+    let f_44 = cc_triquadratic_fetch(jb_3 + vec3<i32>(-1, -1, -2));
+    let f_45 = cc_triquadratic_fetch(jb_3 + vec3<i32>(-2, -1, -2));
+    let f_46 = cc_triquadratic_fetch(jb_3 + vec3<i32>(0, -2, -2));
+    let f_47 = cc_triquadratic_fetch(jb_3 + vec3<i32>(-1, -2, -2));
+    let f_48 = cc_triquadratic_fetch(jb_3 + vec3<i32>(-2, -2, -2));
+    let c_49 = wt_5 * f_22 + wt_6 * f_23 + wt_8 * f_24;
+    let c_50 = wt_5 * f_25 + wt_6 * f_26 + wt_8 * f_27;
+    let c_51 = wt_5 * f_28 + wt_6 * f_29 + wt_8 * f_30;
+    let c_52 = wt_5 * f_31 + wt_6 * f_32 + wt_8 * f_33;
+    let c_53 = wt_5 * f_34 + wt_6 * f_35 + wt_8 * f_36;
+    let c_54 = wt_5 * f_37 + wt_6 * f_38 + wt_8 * f_39;
+    let c_55 = wt_5 * f_40 + wt_6 * f_41 + wt_8 * f_42;
+    let c_56 = wt_5 * f_43 + wt_6 * f_44 + wt_8 * f_45;
+    let c_57 = wt_5 * f_46 + wt_6 * f_47 + wt_8 * f_48;
+    let c_58 = t_2.x * f_22 + dwt_7 * f_23 + dwt_9 * f_24;
+    let c_59 = t_2.x * f_25 + dwt_7 * f_26 + dwt_9 * f_27;
+    let c_60 = t_2.x * f_28 + dwt_7 * f_29 + dwt_9 * f_30;
+    let c_61 = t_2.x * f_31 + dwt_7 * f_32 + dwt_9 * f_33;
+    let c_62 = t_2.x * f_34 + dwt_7 * f_35 + dwt_9 * f_36;
+    let c_63 = t_2.x * f_37 + dwt_7 * f_38 + dwt_9 * f_39;
+    let c_64 = t_2.x * f_40 + dwt_7 * f_41 + dwt_9 * f_42;
+    let c_65 = t_2.x * f_43 + dwt_7 * f_44 + dwt_9 * f_45;
+    let c_66 = t_2.x * f_46 + dwt_7 * f_47 + dwt_9 * f_48;
+    let c_67 = f_22 + -2.0 * f_23 + f_24;
+    let c_68 = f_25 + -2.0 * f_26 + f_27;
+    let c_69 = f_28 + -2.0 * f_29 + f_30;
+    let c_70 = f_31 + -2.0 * f_32 + f_33;
+    let c_71 = f_34 + -2.0 * f_35 + f_36;
+    let c_72 = f_37 + -2.0 * f_38 + f_39;
+    let c_73 = f_40 + -2.0 * f_41 + f_42;
+    let c_74 = f_43 + -2.0 * f_44 + f_45;
+    let c_75 = f_46 + -2.0 * f_47 + f_48;
+    let c_76 = wt_11 * c_49 + wt_12 * c_50 + wt_14 * c_51;
+    let c_77 = wt_11 * c_52 + wt_12 * c_53 + wt_14 * c_54;
+    let c_78 = wt_11 * c_55 + wt_12 * c_56 + wt_14 * c_57;
+    let c_79 = t_2.y * c_49 + dwt_13 * c_50 + dwt_15 * c_51;
+    let c_80 = t_2.y * c_52 + dwt_13 * c_53 + dwt_15 * c_54;
+    let c_81 = t_2.y * c_55 + dwt_13 * c_56 + dwt_15 * c_57;
+    let c_82 = c_49 + -2.0 * c_50 + c_51;
+    let c_83 = c_52 + -2.0 * c_53 + c_54;
+    let c_84 = c_55 + -2.0 * c_56 + c_57;
+    let c_85 = wt_11 * c_58 + wt_12 * c_59 + wt_14 * c_60;
+    let c_86 = wt_11 * c_61 + wt_12 * c_62 + wt_14 * c_63;
+    let c_87 = wt_11 * c_64 + wt_12 * c_65 + wt_14 * c_66;
+    let c_88 = t_2.y * c_58 + dwt_13 * c_59 + dwt_15 * c_60;
+    let c_89 = t_2.y * c_61 + dwt_13 * c_62 + dwt_15 * c_63;
+    let c_90 = t_2.y * c_64 + dwt_13 * c_65 + dwt_15 * c_66;
+    let c_91 = wt_11 * c_67 + wt_12 * c_68 + wt_14 * c_69;
+    let c_92 = wt_11 * c_70 + wt_12 * c_71 + wt_14 * c_72;
+    let c_93 = wt_11 * c_73 + wt_12 * c_74 + wt_14 * c_75;
+    let c_94 = wt_17 * c_76 + wt_18 * c_77 + wt_20 * c_78;
+    let c_95 = t_2.z * c_76 + dwt_19 * c_77 + dwt_21 * c_78;
+    let c_96 = c_76 + -2.0 * c_77 + c_78;
+    let c_97 = wt_17 * c_79 + wt_18 * c_80 + wt_20 * c_81;
+    let c_98 = t_2.z * c_79 + dwt_19 * c_80 + dwt_21 * c_81;
+    let c_99 = wt_17 * c_82 + wt_18 * c_83 + wt_20 * c_84;
+    let c_100 = wt_17 * c_85 + wt_18 * c_86 + wt_20 * c_87;
+    let c_101 = t_2.z * c_85 + dwt_19 * c_86 + dwt_21 * c_87;
+    let c_102 = wt_17 * c_88 + wt_18 * c_89 + wt_20 * c_90;
+    let c_103 = wt_17 * c_91 + wt_18 * c_92 + wt_20 * c_93;
+    let val_104 = c_94;
+    let gx_105 = vec3<f32>(c_100, c_97, c_95);
+    return cc_triquadratic_Hessian(val_104, gx_105, mat3x3<f32>(vec3<f32>(c_103, c_102, c_101), vec3<f32>(c_102, c_99, c_98), vec3<f32>(c_101, c_98, c_96)));
 }
 // Kernels. Bindings for the outputs follow the sample bindings.
 @group(0) @binding(1) var<storage, read_write> cc_triquadratic_out: array<f32>;

@@ -2,7 +2,7 @@
 // boxforge filter `fcc6` on the fcc lattice (3D), layout `embedded`, variant `naive`.
 // Point location: fold + sorting network + plane tests. Fetches per eval: 16. Vector adds for fetch positions: 48 (a matrix-vector product per fetch: 48).
 // Evaluation form: dense (static ops eval/eval_grad of each form: dense 283/318). Fetch bounds: clamp.
-// Entry functions: fcc6_fetch, fcc6_eval, fcc6_eval_grad, fcc6_prefilter_main, fcc6_minmax_main.
+// Entry functions: fcc6_fetch, fcc6_eval, fcc6_eval_grad, fcc6_eval_hessian (form dense), fcc6_prefilter_main, fcc6_minmax_main.
 
 // Embedded layout: the lattice samples sit at their integer positions of a
 // Cartesian texture (|det G| texels per sample); other texels are unused.
@@ -183,6 +183,14 @@ fn fcc6_cube_bounds(z: vec3<i32>) -> vec2<f32> {
     let lo_145 = min(lo_123, min(min(min(min(min(min(min(min(min(min(min(min(min(min(min(min(min(min(min(b_125, b_126), b_127), b_128), b_129), b_130), b_131), b_132), b_133), b_134), b_135), b_136), b_137), b_138), b_139), b_140), b_141), b_142), b_143), b_144));
     let hi_146 = max(hi_124, max(max(max(max(max(max(max(max(max(max(max(max(max(max(max(max(max(max(max(b_125, b_126), b_127), b_128), b_129), b_130), b_131), b_132), b_133), b_134), b_135), b_136), b_137), b_138), b_139), b_140), b_141), b_142), b_143), b_144));
     return vec2<f32>(lo_145, hi_146);
+}
+
+/// Value, gradient and Hessian (symmetric, d2/dp_i dp_j in column j, row i)
+/// from one set of fetches.
+struct fcc6_Hessian {
+    value: f32,
+    gradient: vec3<f32>,
+    hessian: mat3x3<f32>,
 }
 
 /// The spline at p (lattice coordinates embedded in Z^3).
@@ -377,6 +385,167 @@ fn fcc6_eval_grad(p: vec3<f32>) -> vec4<f32> {
     let gw_60 = select(gw_59, gw_58, ci == 2);
     let gx_61 = vec3<f32>(m_5) * gw_60.x + vec3<f32>(m_6) * gw_60.y + vec3<f32>(m_7) * gw_60.z;
     return vec4<f32>(val_55, gx_61);
+}
+
+/// Value, gradient and Hessian from the same fetches.
+fn fcc6_eval_hessian(p: vec3<f32>) -> fcc6_Hessian {
+    let c_0 = 2.0 * round(p * 0.5);
+    let d_1 = p - c_0;
+    let sg_2 = select(vec3<i32>(-1), vec3<i32>(1), d_1 >= vec3<f32>(0.0));
+    let base_3 = vec3<i32>(c_0);
+    var w_4 = abs(d_1);
+    var m_5 = vec3<i32>(sg_2.x, 0, 0);
+    var m_6 = vec3<i32>(0, sg_2.y, 0);
+    var m_7 = vec3<i32>(0, 0, sg_2.z);
+    if (w_4.x < w_4.y) {
+        w_4 = w_4.yxz;
+        let t = m_5;
+        m_5 = m_6;
+        m_6 = t;
+    }
+    if (w_4.y < w_4.z) {
+        w_4 = w_4.xzy;
+        let t = m_6;
+        m_6 = m_7;
+        m_7 = t;
+    }
+    if (w_4.x < w_4.y) {
+        w_4 = w_4.yxz;
+        let t = m_5;
+        m_5 = m_6;
+        m_6 = t;
+    }
+    var ci = 0;
+    if ((w_4.x + w_4.y - w_4.z <= 1.0 + 1e-6) && (-w_4.x - w_4.y - w_4.z <= -1.0 + 1e-6)) { ci = 1; }
+    if ((-w_4.x - w_4.y + w_4.z <= -1.0 + 1e-6)) { ci = 2; }
+    var f: array<f32, 16>;
+    for (var k = 0; k < 16; k++) {
+        let q = fcc6_OFFSETS[ci * 16 + k];
+        f[k] = fcc6_fetch(base_3 + m_5 * q.x + m_6 * q.y + m_7 * q.z);
+    }
+    var bt_8 = array<f32, 20>();
+    for (var e = 0; e < 119; e++) {
+        let t = fcc6_W0[e];
+        bt_8[i32(t.x)] += t.z * f[i32(t.y)];
+    }
+    let u_9 = vec3<f32>(w_4.x, w_4.y, w_4.z);
+    let u_10 = vec3<f32>(-w_4.x, -w_4.y, w_4.z) + vec3<f32>(1.0, 1.0, 0.0);
+    let u_11 = select(u_9, u_10, ci == 2);
+    let l_12 = -u_11.x - u_11.y - u_11.z + 1.0;
+    let l_13 = u_11.z;
+    let l_14 = u_11.y;
+    let l_15 = u_11.x;
+    let dc_16 = l_12 * bt_8[0] + l_13 * bt_8[1] + l_14 * bt_8[2] + l_15 * bt_8[3];
+    let dc_17 = l_12 * bt_8[1] + l_13 * bt_8[4] + l_14 * bt_8[5] + l_15 * bt_8[6];
+    let dc_18 = l_12 * bt_8[2] + l_13 * bt_8[5] + l_14 * bt_8[7] + l_15 * bt_8[8];
+    let dc_19 = l_12 * bt_8[3] + l_13 * bt_8[6] + l_14 * bt_8[8] + l_15 * bt_8[9];
+    let dc_20 = l_12 * bt_8[4] + l_13 * bt_8[10] + l_14 * bt_8[11] + l_15 * bt_8[12];
+    let dc_21 = l_12 * bt_8[5] + l_13 * bt_8[11] + l_14 * bt_8[13] + l_15 * bt_8[14];
+    let dc_22 = l_12 * bt_8[6] + l_13 * bt_8[12] + l_14 * bt_8[14] + l_15 * bt_8[15];
+    let dc_23 = l_12 * bt_8[7] + l_13 * bt_8[13] + l_14 * bt_8[16] + l_15 * bt_8[17];
+    let dc_24 = l_12 * bt_8[8] + l_13 * bt_8[14] + l_14 * bt_8[17] + l_15 * bt_8[18];
+    let dc_25 = l_12 * bt_8[9] + l_13 * bt_8[15] + l_14 * bt_8[18] + l_15 * bt_8[19];
+    let dc_26 = l_12 * dc_16 + l_13 * dc_17 + l_14 * dc_18 + l_15 * dc_19;
+    let dc_27 = l_12 * dc_17 + l_13 * dc_20 + l_14 * dc_21 + l_15 * dc_22;
+    let dc_28 = l_12 * dc_18 + l_13 * dc_21 + l_14 * dc_23 + l_15 * dc_24;
+    let dc_29 = l_12 * dc_19 + l_13 * dc_22 + l_14 * dc_24 + l_15 * dc_25;
+    let v_30 = l_12 * dc_26 + l_13 * dc_27 + l_14 * dc_28 + l_15 * dc_29;
+    let g_31 = 3.0 * vec3<f32>((-dc_26 + dc_29), (-dc_26 + dc_28), (-dc_26 + dc_27));
+    let ht_32 = -dc_16 + dc_19;
+    let ht_33 = -dc_16 + dc_18;
+    let ht_34 = -dc_16 + dc_17;
+    let ht_35 = -dc_17 + dc_22;
+    let ht_36 = -dc_17 + dc_21;
+    let ht_37 = -dc_17 + dc_20;
+    let ht_38 = -dc_18 + dc_24;
+    let ht_39 = -dc_18 + dc_23;
+    let ht_40 = -dc_18 + dc_21;
+    let ht_41 = -dc_19 + dc_25;
+    let ht_42 = -dc_19 + dc_24;
+    let ht_43 = -dc_19 + dc_22;
+    let hs_44 = -6.0 * ht_32 + 6.0 * ht_41;
+    let hs_45 = -6.0 * ht_32 + 6.0 * ht_38;
+    let hs_46 = -6.0 * ht_32 + 6.0 * ht_35;
+    let hs_47 = -6.0 * ht_33 + 6.0 * ht_39;
+    let hs_48 = -6.0 * ht_33 + 6.0 * ht_36;
+    let hs_49 = -6.0 * ht_34 + 6.0 * ht_37;
+    var bt_50 = array<f32, 20>();
+    for (var e = 0; e < 88; e++) {
+        let t = fcc6_W1[e];
+        bt_50[i32(t.x)] += t.z * f[i32(t.y)];
+    }
+    let u_51 = vec3<f32>(w_4.x, w_4.y, w_4.z);
+    let l_52 = -0.5 * u_51.x - 0.5 * u_51.y + 0.5 * u_51.z + 0.5 * 1.0;
+    let l_53 = -0.5 * u_51.x + 0.5 * u_51.y - 0.5 * u_51.z + 0.5 * 1.0;
+    let l_54 = 0.5 * u_51.x - 0.5 * u_51.y - 0.5 * u_51.z + 0.5 * 1.0;
+    let l_55 = 0.5 * u_51.x + 0.5 * u_51.y + 0.5 * u_51.z - 0.5 * 1.0;
+    let dc_56 = l_52 * bt_50[0] + l_53 * bt_50[1] + l_54 * bt_50[2] + l_55 * bt_50[3];
+    let dc_57 = l_52 * bt_50[1] + l_53 * bt_50[4] + l_54 * bt_50[5] + l_55 * bt_50[6];
+    let dc_58 = l_52 * bt_50[2] + l_53 * bt_50[5] + l_54 * bt_50[7] + l_55 * bt_50[8];
+    let dc_59 = l_52 * bt_50[3] + l_53 * bt_50[6] + l_54 * bt_50[8] + l_55 * bt_50[9];
+    let dc_60 = l_52 * bt_50[4] + l_53 * bt_50[10] + l_54 * bt_50[11] + l_55 * bt_50[12];
+    let dc_61 = l_52 * bt_50[5] + l_53 * bt_50[11] + l_54 * bt_50[13] + l_55 * bt_50[14];
+    let dc_62 = l_52 * bt_50[6] + l_53 * bt_50[12] + l_54 * bt_50[14] + l_55 * bt_50[15];
+    let dc_63 = l_52 * bt_50[7] + l_53 * bt_50[13] + l_54 * bt_50[16] + l_55 * bt_50[17];
+    let dc_64 = l_52 * bt_50[8] + l_53 * bt_50[14] + l_54 * bt_50[17] + l_55 * bt_50[18];
+    let dc_65 = l_52 * bt_50[9] + l_53 * bt_50[15] + l_54 * bt_50[18] + l_55 * bt_50[19];
+    let dc_66 = l_52 * dc_56 + l_53 * dc_57 + l_54 * dc_58 + l_55 * dc_59;
+    let dc_67 = l_52 * dc_57 + l_53 * dc_60 + l_54 * dc_61 + l_55 * dc_62;
+    let dc_68 = l_52 * dc_58 + l_53 * dc_61 + l_54 * dc_63 + l_55 * dc_64;
+    let dc_69 = l_52 * dc_59 + l_53 * dc_62 + l_54 * dc_64 + l_55 * dc_65;
+    let v_70 = l_52 * dc_66 + l_53 * dc_67 + l_54 * dc_68 + l_55 * dc_69;
+    let g_71 = 3.0 * vec3<f32>((-0.5 * dc_66 - 0.5 * dc_67 + 0.5 * dc_68 + 0.5 * dc_69), (-0.5 * dc_66 + 0.5 * dc_67 - 0.5 * dc_68 + 0.5 * dc_69), (0.5 * dc_66 - 0.5 * dc_67 - 0.5 * dc_68 + 0.5 * dc_69));
+    let ht_72 = -0.5 * dc_56 - 0.5 * dc_57 + 0.5 * dc_58 + 0.5 * dc_59;
+    let ht_73 = -0.5 * dc_56 + 0.5 * dc_57 - 0.5 * dc_58 + 0.5 * dc_59;
+    let ht_74 = 0.5 * dc_56 - 0.5 * dc_57 - 0.5 * dc_58 + 0.5 * dc_59;
+    let ht_75 = -0.5 * dc_57 - 0.5 * dc_60 + 0.5 * dc_61 + 0.5 * dc_62;
+    let ht_76 = -0.5 * dc_57 + 0.5 * dc_60 - 0.5 * dc_61 + 0.5 * dc_62;
+    let ht_77 = 0.5 * dc_57 - 0.5 * dc_60 - 0.5 * dc_61 + 0.5 * dc_62;
+    let ht_78 = -0.5 * dc_58 - 0.5 * dc_61 + 0.5 * dc_63 + 0.5 * dc_64;
+    let ht_79 = -0.5 * dc_58 + 0.5 * dc_61 - 0.5 * dc_63 + 0.5 * dc_64;
+    let ht_80 = 0.5 * dc_58 - 0.5 * dc_61 - 0.5 * dc_63 + 0.5 * dc_64;
+    let ht_81 = -0.5 * dc_59 - 0.5 * dc_62 + 0.5 * dc_64 + 0.5 * dc_65;
+    let ht_82 = -0.5 * dc_59 + 0.5 * dc_62 - 0.5 * dc_64 + 0.5 * dc_65;
+    let ht_83 = 0.5 * dc_59 - 0.5 * dc_62 - 0.5 * dc_64 + 0.5 * dc_65;
+    let hs_84 = -3.0 * ht_72 - 3.0 * ht_75 + 3.0 * ht_78 + 3.0 * ht_81;
+    let hs_85 = -3.0 * ht_72 + 3.0 * ht_75 - 3.0 * ht_78 + 3.0 * ht_81;
+    let hs_86 = 3.0 * ht_72 - 3.0 * ht_75 - 3.0 * ht_78 + 3.0 * ht_81;
+    let hs_87 = -3.0 * ht_73 + 3.0 * ht_76 - 3.0 * ht_79 + 3.0 * ht_82;
+    let hs_88 = 3.0 * ht_73 - 3.0 * ht_76 - 3.0 * ht_79 + 3.0 * ht_82;
+    let hs_89 = 3.0 * ht_74 - 3.0 * ht_77 - 3.0 * ht_80 + 3.0 * ht_83;
+    let val_90 = select(v_30, v_70, ci == 1);
+    let val_91 = select(val_90, v_30, ci == 2);
+    let gw_92 = vec3<f32>(g_31.x, g_31.y, g_31.z);
+    let gw_93 = vec3<f32>(g_71.x, g_71.y, g_71.z);
+    let gw_94 = vec3<f32>(-g_31.x, -g_31.y, g_31.z);
+    let gw_95 = select(gw_92, gw_93, ci == 1);
+    let gw_96 = select(gw_95, gw_94, ci == 2);
+    let gx_97 = vec3<f32>(m_5) * gw_96.x + vec3<f32>(m_6) * gw_96.y + vec3<f32>(m_7) * gw_96.z;
+    let hc_98 = vec3<f32>(hs_44, hs_45, hs_46);
+    let hc_99 = vec3<f32>(hs_45, hs_47, hs_48);
+    let hc_100 = vec3<f32>(hs_46, hs_48, hs_49);
+    let hc_101 = vec3<f32>(hs_84, hs_85, hs_86);
+    let hc_102 = vec3<f32>(hs_85, hs_87, hs_88);
+    let hc_103 = vec3<f32>(hs_86, hs_88, hs_89);
+    let hw_104 = vec3<f32>(hc_98.x, hc_98.y, hc_98.z);
+    let hw_105 = vec3<f32>(hc_101.x, hc_101.y, hc_101.z);
+    let hw_106 = -vec3<f32>(-hc_98.x, -hc_98.y, hc_98.z);
+    let hw_107 = select(hw_104, hw_105, ci == 1);
+    let hw_108 = select(hw_107, hw_106, ci == 2);
+    let hw_109 = vec3<f32>(hc_99.x, hc_99.y, hc_99.z);
+    let hw_110 = vec3<f32>(hc_102.x, hc_102.y, hc_102.z);
+    let hw_111 = -vec3<f32>(-hc_99.x, -hc_99.y, hc_99.z);
+    let hw_112 = select(hw_109, hw_110, ci == 1);
+    let hw_113 = select(hw_112, hw_111, ci == 2);
+    let hw_114 = vec3<f32>(hc_100.x, hc_100.y, hc_100.z);
+    let hw_115 = vec3<f32>(hc_103.x, hc_103.y, hc_103.z);
+    let hw_116 = vec3<f32>(-hc_100.x, -hc_100.y, hc_100.z);
+    let hw_117 = select(hw_114, hw_115, ci == 1);
+    let hw_118 = select(hw_117, hw_116, ci == 2);
+    let hm_119 = mat3x3<f32>(hw_108, hw_113, hw_118);
+    let mf_120 = mat3x3<f32>(vec3<f32>(m_5), vec3<f32>(m_6), vec3<f32>(m_7));
+    let hx_121 = mf_120 * hm_119 * transpose(mf_120);
+    return fcc6_Hessian(val_91, gx_97, hx_121);
 }
 // Kernels. Bindings for the outputs follow the sample bindings.
 @group(0) @binding(1) var<storage, read_write> fcc6_out: array<f32>;

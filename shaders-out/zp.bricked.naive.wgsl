@@ -2,7 +2,7 @@
 // boxforge filter `zp` on the square lattice (2D), layout `bricked`, variant `naive`.
 // Point location: fold + sorting network + plane tests. Fetches per eval: 7. Vector adds for fetch positions: 14 (a matrix-vector product per fetch: 14).
 // Evaluation form: dense (static ops eval/eval_grad of each form: dense 63/77). Fetch bounds: clamp.
-// Entry functions: zp_fetch, zp_eval, zp_eval_grad, zp_prefilter_main, zp_minmax_main.
+// Entry functions: zp_fetch, zp_eval, zp_eval_grad, zp_eval_hessian (form dense), zp_prefilter_main, zp_minmax_main.
 
 // Bricked layout: the lattice texels cut into bricks of B^2, each held in a
 // slot of the pool texture with a halo of h texels on every side (h is at
@@ -151,6 +151,14 @@ fn zp_cube_bounds(z: vec2<i32>) -> vec2<f32> {
     return vec2<f32>(lo_82, hi_83);
 }
 
+/// Value, gradient and Hessian (symmetric, d2/dp_i dp_j in column j, row i)
+/// from one set of fetches.
+struct zp_Hessian {
+    value: f32,
+    gradient: vec2<f32>,
+    hessian: mat2x2<f32>,
+}
+
 /// The spline at p (lattice coordinates embedded in Z^2).
 fn zp_eval(p: vec2<f32>) -> f32 {
     let brick_page = zp_page(p);
@@ -252,6 +260,90 @@ fn zp_eval_grad(p: vec2<f32>) -> vec3<f32> {
     let gw_29 = select(gw_28, gw_26, ci == 3);
     let gx_30 = vec2<f32>(m_5) * gw_29.x + vec2<f32>(m_6) * gw_29.y;
     return vec3<f32>(v_21, gx_30);
+}
+
+/// Value, gradient and Hessian from the same fetches.
+fn zp_eval_hessian(p: vec2<f32>) -> zp_Hessian {
+    let brick_page = zp_page(p);
+    let c_0 = 2.0 * round(p * 0.5);
+    let d_1 = p - c_0;
+    let sg_2 = select(vec2<i32>(-1), vec2<i32>(1), d_1 >= vec2<f32>(0.0));
+    let base_3 = vec2<i32>(c_0);
+    var w_4 = abs(d_1);
+    var m_5 = vec2<i32>(sg_2.x, 0);
+    var m_6 = vec2<i32>(0, sg_2.y);
+    if (w_4.x < w_4.y) {
+        w_4 = w_4.yx;
+        let t = m_5;
+        m_5 = m_6;
+        m_6 = t;
+    }
+    var ci = 0;
+    if ((-w_4.x <= -0.5 + 1e-6) && (w_4.x + w_4.y <= 1.0 + 1e-6)) { ci = 1; }
+    if ((w_4.y <= 0.5 + 1e-6) && (-w_4.x - w_4.y <= -1.0 + 1e-6)) { ci = 2; }
+    if ((-w_4.y <= -0.5 + 1e-6)) { ci = 3; }
+    var f: array<f32, 7>;
+    for (var k = 0; k < 7; k++) {
+        let q = zp_OFFSETS[ci * 7 + k];
+        f[k] = zp_fetch_in(brick_page, base_3 + m_5 * q.x + m_6 * q.y);
+    }
+    var bt_7 = array<f32, 6>();
+    for (var e = 0; e < 21; e++) {
+        let t = zp_W0[e];
+        bt_7[i32(t.x)] += t.z * f[i32(t.y)];
+    }
+    let u_8 = vec2<f32>(-w_4.x, w_4.y) + vec2<f32>(0.5, 0.5);
+    let u_9 = vec2<f32>(w_4.x, w_4.y) + vec2<f32>(-0.5, 0.5);
+    let u_10 = select(u_8, u_9, ci == 1);
+    let u_11 = vec2<f32>(-w_4.y, w_4.x) + vec2<f32>(0.5, -0.5);
+    let u_12 = select(u_10, u_11, ci == 2);
+    let u_13 = vec2<f32>(w_4.y, w_4.x) + vec2<f32>(-0.5, -0.5);
+    let u_14 = select(u_12, u_13, ci == 3);
+    let l_15 = -u_14.x - u_14.y + 1.0;
+    let l_16 = -u_14.x + u_14.y;
+    let l_17 = 2.0 * u_14.x;
+    let dc_18 = l_15 * bt_7[0] + l_16 * bt_7[1] + l_17 * bt_7[2];
+    let dc_19 = l_15 * bt_7[1] + l_16 * bt_7[3] + l_17 * bt_7[4];
+    let dc_20 = l_15 * bt_7[2] + l_16 * bt_7[4] + l_17 * bt_7[5];
+    let v_21 = l_15 * dc_18 + l_16 * dc_19 + l_17 * dc_20;
+    let g_22 = 2.0 * vec2<f32>((-dc_18 - dc_19 + 2.0 * dc_20), (-dc_18 + dc_19));
+    let ht_23 = -bt_7[0] - bt_7[1] + 2.0 * bt_7[2];
+    let ht_24 = -bt_7[0] + bt_7[1];
+    let ht_25 = -bt_7[1] - bt_7[3] + 2.0 * bt_7[4];
+    let ht_26 = -bt_7[1] + bt_7[3];
+    let ht_27 = -bt_7[2] - bt_7[4] + 2.0 * bt_7[5];
+    let ht_28 = -bt_7[2] + bt_7[4];
+    let hs_29 = -2.0 * ht_23 - 2.0 * ht_25 + 4.0 * ht_27;
+    let hs_30 = -2.0 * ht_23 + 2.0 * ht_25;
+    let hs_31 = -2.0 * ht_24 + 2.0 * ht_26;
+    let gw_32 = vec2<f32>(-g_22.x, g_22.y);
+    let gw_33 = vec2<f32>(g_22.x, g_22.y);
+    let gw_34 = vec2<f32>(g_22.y, -g_22.x);
+    let gw_35 = vec2<f32>(g_22.y, g_22.x);
+    let gw_36 = select(gw_32, gw_33, ci == 1);
+    let gw_37 = select(gw_36, gw_34, ci == 2);
+    let gw_38 = select(gw_37, gw_35, ci == 3);
+    let gx_39 = vec2<f32>(m_5) * gw_38.x + vec2<f32>(m_6) * gw_38.y;
+    let hc_40 = vec2<f32>(hs_29, hs_30);
+    let hc_41 = vec2<f32>(hs_30, hs_31);
+    let hw_42 = -vec2<f32>(-hc_40.x, hc_40.y);
+    let hw_43 = vec2<f32>(hc_40.x, hc_40.y);
+    let hw_44 = vec2<f32>(hc_41.y, -hc_41.x);
+    let hw_45 = vec2<f32>(hc_41.y, hc_41.x);
+    let hw_46 = select(hw_42, hw_43, ci == 1);
+    let hw_47 = select(hw_46, hw_44, ci == 2);
+    let hw_48 = select(hw_47, hw_45, ci == 3);
+    let hw_49 = vec2<f32>(-hc_41.x, hc_41.y);
+    let hw_50 = vec2<f32>(hc_41.x, hc_41.y);
+    let hw_51 = -vec2<f32>(hc_40.y, -hc_40.x);
+    let hw_52 = vec2<f32>(hc_40.y, hc_40.x);
+    let hw_53 = select(hw_49, hw_50, ci == 1);
+    let hw_54 = select(hw_53, hw_51, ci == 2);
+    let hw_55 = select(hw_54, hw_52, ci == 3);
+    let hm_56 = mat2x2<f32>(hw_48, hw_55);
+    let mf_57 = mat2x2<f32>(vec2<f32>(m_5), vec2<f32>(m_6));
+    let hx_58 = mf_57 * hm_56 * transpose(mf_57);
+    return zp_Hessian(v_21, gx_39, hx_58);
 }
 // Kernels. Bindings for the outputs follow the sample bindings.
 @group(0) @binding(3) var<storage, read_write> zp_out: array<f32>;

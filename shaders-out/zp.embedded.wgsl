@@ -2,7 +2,7 @@
 // boxforge filter `zp` on the square lattice (2D), layout `embedded`, variant `fast`.
 // Point location: fold + sorting network + plane tests. Fetches per eval: 7. Vector adds for fetch positions: 14 (a matrix-vector product per fetch: 14).
 // Evaluation form: power (static ops eval/eval_grad of each form: power 141/156, ridge 158/185, bb 153/167, dense 168/182). Fetch bounds: clamp.
-// Entry functions: zp_fetch, zp_eval, zp_eval_grad, zp_prefilter_main, zp_minmax_main.
+// Entry functions: zp_fetch, zp_eval, zp_eval_grad, zp_eval_hessian (form power), zp_prefilter_main, zp_minmax_main.
 
 // Embedded layout: the lattice samples sit at their integer positions of a
 // Cartesian texture (|det G| texels per sample); other texels are unused.
@@ -115,6 +115,14 @@ fn zp_cube_bounds(z: vec2<i32>) -> vec2<f32> {
     let lo_82 = min(lo_74, min(min(min(min(min(b_76, b_77), b_78), b_79), b_80), b_81));
     let hi_83 = max(hi_75, max(max(max(max(max(b_76, b_77), b_78), b_79), b_80), b_81));
     return vec2<f32>(lo_82, hi_83);
+}
+
+/// Value, gradient and Hessian (symmetric, d2/dp_i dp_j in column j, row i)
+/// from one set of fetches.
+struct zp_Hessian {
+    value: f32,
+    gradient: vec2<f32>,
+    hessian: mat2x2<f32>,
 }
 
 /// The spline at p (lattice coordinates embedded in Z^2).
@@ -287,6 +295,119 @@ fn zp_eval_grad(p: vec2<f32>) -> vec3<f32> {
     let gw_85 = select(gw_84, gw_82, ci_16 == 3);
     let gx_86 = vec2<f32>(m_9) * gw_85.x + vec2<f32>(m_10) * gw_85.y;
     return vec3<f32>(v_77, gx_86);
+}
+
+/// Value, gradient and Hessian from the same fetches.
+fn zp_eval_hessian(p: vec2<f32>) -> zp_Hessian {
+    let c_0 = 2.0 * round(p * 0.5);
+    let d_1 = p - c_0;
+    let sg_2 = select(vec2<i32>(-1), vec2<i32>(1), d_1 >= vec2<f32>(0.0));
+    let base_3 = vec2<i32>(c_0);
+    let w_4 = abs(d_1);
+    let m_5 = vec2<i32>(sg_2.x, 0);
+    let m_6 = vec2<i32>(0, sg_2.y);
+    let sw_7 = w_4.x < w_4.y;
+    let w_8 = select(w_4, w_4.yx, sw_7);
+    let m_9 = select(m_5, m_6, sw_7);
+    let m_10 = select(m_6, m_5, sw_7);
+    let in_11 = (-w_8.x <= -0.5 + 1e-6) & (w_8.x + w_8.y <= 1.0 + 1e-6);
+    let ci_12 = select(0, 1, in_11);
+    let in_13 = (w_8.y <= 0.5 + 1e-6) & (-w_8.x - w_8.y <= -1.0 + 1e-6);
+    let ci_14 = select(ci_12, 2, in_13);
+    let in_15 = (-w_8.y <= -0.5 + 1e-6);
+    let ci_16 = select(ci_14, 3, in_15);
+    let q_17 = select(vec2<i32>(0, 0), vec2<i32>(1, 0), ci_16 == 1);
+    let q_18 = select(q_17, vec2<i32>(1, 0), ci_16 == 2);
+    let q_19 = select(q_18, vec2<i32>(1, 1), ci_16 == 3);
+    let j_20 = base_3 + m_9 * q_19.x + m_10 * q_19.y;
+    let f_21 = zp_fetch(j_20);
+    let q_22 = select(vec2<i32>(0, -1), vec2<i32>(1, -1), ci_16 == 1);
+    let q_23 = select(q_22, vec2<i32>(0, 0), ci_16 == 2);
+    let q_24 = select(q_23, vec2<i32>(0, 1), ci_16 == 3);
+    let j_25 = base_3 + m_9 * q_24.x + m_10 * q_24.y;
+    let f_26 = zp_fetch(j_25);
+    let q_27 = select(vec2<i32>(1, -1), vec2<i32>(0, -1), ci_16 == 1);
+    let q_28 = select(q_27, vec2<i32>(0, 1), ci_16 == 2);
+    let q_29 = select(q_28, vec2<i32>(0, 0), ci_16 == 3);
+    let j_30 = base_3 + m_9 * q_29.x + m_10 * q_29.y;
+    let f_31 = zp_fetch(j_30);
+    let q_32 = select(vec2<i32>(1, 0), vec2<i32>(0, 0), ci_16 == 1);
+    let q_33 = select(q_32, vec2<i32>(1, 1), ci_16 == 2);
+    let q_34 = select(q_33, vec2<i32>(1, 0), ci_16 == 3);
+    let j_35 = base_3 + m_9 * q_34.x + m_10 * q_34.y;
+    let f_36 = zp_fetch(j_35);
+    let q_37 = select(vec2<i32>(1, 1), vec2<i32>(0, 1), ci_16 == 1);
+    let q_38 = select(q_37, vec2<i32>(2, 1), ci_16 == 2);
+    let q_39 = select(q_38, vec2<i32>(2, 0), ci_16 == 3);
+    let j_40 = base_3 + m_9 * q_39.x + m_10 * q_39.y;
+    let f_41 = zp_fetch(j_40);
+    let q_42 = select(vec2<i32>(0, 1), vec2<i32>(1, 1), ci_16 == 1);
+    let q_43 = select(q_42, vec2<i32>(2, 0), ci_16 == 2);
+    let q_44 = select(q_43, vec2<i32>(2, 1), ci_16 == 3);
+    let j_45 = base_3 + m_9 * q_44.x + m_10 * q_44.y;
+    let f_46 = zp_fetch(j_45);
+    let q_47 = select(vec2<i32>(-1, 0), vec2<i32>(2, 0), ci_16 == 1);
+    let q_48 = select(q_47, vec2<i32>(1, -1), ci_16 == 2);
+    let q_49 = select(q_48, vec2<i32>(1, 2), ci_16 == 3);
+    let j_50 = base_3 + m_9 * q_49.x + m_10 * q_49.y;
+    let f_51 = zp_fetch(j_50);
+    let s_52 = f_31 + f_26;
+    let s_53 = f_31 - f_26;
+    let s_54 = f_36 + f_21;
+    let s_55 = f_41 - f_46;
+    let b_56 = 0.25 * (s_52 + s_54);
+    let b_57 = -0.5 * (f_36 - f_21 + s_53);
+    let b_58 = -0.5 * (s_52 - s_54);
+    let b_59 = 0.25 * (s_53 + s_55) - 0.5 * (f_21 - f_51);
+    let b_60 = 0.5 * (s_53 - s_55);
+    let b_61 = 0.25 * (f_41 + f_46 + s_52) - 0.5 * s_54;
+    let u_62 = vec2<f32>(-w_8.x, w_8.y) + vec2<f32>(0.5, 0.5);
+    let u_63 = vec2<f32>(w_8.x, w_8.y) + vec2<f32>(-0.5, 0.5);
+    let u_64 = select(u_62, u_63, ci_16 == 1);
+    let u_65 = vec2<f32>(-w_8.y, w_8.x) + vec2<f32>(0.5, -0.5);
+    let u_66 = select(u_64, u_65, ci_16 == 2);
+    let u_67 = vec2<f32>(w_8.y, w_8.x) + vec2<f32>(-0.5, -0.5);
+    let u_68 = select(u_66, u_67, ci_16 == 3);
+    let h_69 = b_61 * u_68.y + b_58;
+    let h_70 = b_61 + b_61;
+    let h_71 = b_61 * u_68.y + h_69;
+    let h_72 = h_69 * u_68.y + b_56;
+    let h_73 = b_60 * u_68.y + b_57;
+    let h_74 = b_59 * u_68.x + h_73;
+    let h_75 = b_59 + b_59;
+    let h_76 = b_59 * u_68.x + h_74;
+    let h_77 = b_60 * u_68.x + h_71;
+    let h_78 = h_74 * u_68.x + h_72;
+    let v_79 = h_78;
+    let g_80 = vec2<f32>(h_76, h_77);
+    let gw_81 = vec2<f32>(-g_80.x, g_80.y);
+    let gw_82 = vec2<f32>(g_80.x, g_80.y);
+    let gw_83 = vec2<f32>(g_80.y, -g_80.x);
+    let gw_84 = vec2<f32>(g_80.y, g_80.x);
+    let gw_85 = select(gw_81, gw_82, ci_16 == 1);
+    let gw_86 = select(gw_85, gw_83, ci_16 == 2);
+    let gw_87 = select(gw_86, gw_84, ci_16 == 3);
+    let gx_88 = vec2<f32>(m_9) * gw_87.x + vec2<f32>(m_10) * gw_87.y;
+    let hc_89 = vec2<f32>(h_75, b_60);
+    let hc_90 = vec2<f32>(b_60, h_70);
+    let hw_91 = -vec2<f32>(-hc_89.x, hc_89.y);
+    let hw_92 = vec2<f32>(hc_89.x, hc_89.y);
+    let hw_93 = vec2<f32>(hc_90.y, -hc_90.x);
+    let hw_94 = vec2<f32>(hc_90.y, hc_90.x);
+    let hw_95 = select(hw_91, hw_92, ci_16 == 1);
+    let hw_96 = select(hw_95, hw_93, ci_16 == 2);
+    let hw_97 = select(hw_96, hw_94, ci_16 == 3);
+    let hw_98 = vec2<f32>(-hc_90.x, hc_90.y);
+    let hw_99 = vec2<f32>(hc_90.x, hc_90.y);
+    let hw_100 = -vec2<f32>(hc_89.y, -hc_89.x);
+    let hw_101 = vec2<f32>(hc_89.y, hc_89.x);
+    let hw_102 = select(hw_98, hw_99, ci_16 == 1);
+    let hw_103 = select(hw_102, hw_100, ci_16 == 2);
+    let hw_104 = select(hw_103, hw_101, ci_16 == 3);
+    let hm_105 = mat2x2<f32>(hw_97, hw_104);
+    let mf_106 = mat2x2<f32>(vec2<f32>(m_9), vec2<f32>(m_10));
+    let hx_107 = mf_106 * hm_105 * transpose(mf_106);
+    return zp_Hessian(v_79, gx_88, hx_107);
 }
 // Kernels. Bindings for the outputs follow the sample bindings.
 @group(0) @binding(1) var<storage, read_write> zp_out: array<f32>;

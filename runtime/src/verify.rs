@@ -9,6 +9,7 @@ use boxforge::derive::Derivation;
 use boxforge::emit::{emit, Bounds, EmitOptions, EvalForm, FetchMode, Layout, Variant};
 use serde::Serialize;
 
+pub mod hessian;
 pub mod kernel;
 pub mod target;
 
@@ -50,6 +51,13 @@ pub struct VerifyReport {
     /// Near-knot points whose device value and gradient match a neighbouring
     /// piece (not the one the exact evaluator picked) and were accepted so.
     pub accepted_other_side: usize,
+    /// The form of `eval_hessian` (None: the module has none, degree < 2).
+    pub hessian_form: Option<EvalForm>,
+    /// max over points of |H_gpu - H_exact|_max / max(|H_exact|_max, data
+    /// range), `eval_hessian`'s value and gradient held to the tolerances above.
+    pub max_rel_hessian_err: Option<f64>,
+    /// Near-knot points whose device Hessian matched a neighbouring piece.
+    pub hessian_accepted_other_side: usize,
     pub passed: bool,
     pub adapter: String,
 }
@@ -443,7 +451,21 @@ pub fn verify_fetch(
         let (values, grads) = evaluator.eval(&faces)?;
         tally.check(d, &vol, &faces, &values, &grads);
     }
-    let passed = tally.passed();
+    // Second order, at the same points (and brick faces).
+    let mut hessian_tally = None;
+    if module.stats.hessian_form.is_some() {
+        let hev = hessian::HessianEvaluator::new(gpu, &module.source, &module.file_name, &d.filter.name, &dv)?;
+        let mut t = hessian::HessianTally::new(range);
+        let mut pts = random_points(d, &vol, points.min(POINTS_PER_DISPATCH), seed);
+        if let Some(b) = dv.bricks {
+            let base = random_points(d, &vol, points.min(POINTS_PER_DISPATCH), seed ^ 0xB41C);
+            pts.extend(brick_face_points(d, &vol, &base, b.edge));
+        }
+        let got = hev.eval(&pts)?;
+        t.check(d, &vol, &pts, &got);
+        hessian_tally = Some(t);
+    }
+    let passed = tally.passed() && hessian_tally.as_ref().is_none_or(|t| t.passed());
     Ok(VerifyReport {
         filter: d.filter.name.clone(),
         layout,
@@ -457,6 +479,9 @@ pub fn verify_fetch(
         data_range: range,
         near_knot_points: tally.near_knot_points,
         accepted_other_side: tally.accepted_other_side,
+        hessian_form: module.stats.hessian_form,
+        max_rel_hessian_err: hessian_tally.as_ref().map(|t| t.max_rel.max(t.first_order.max_rel)),
+        hessian_accepted_other_side: hessian_tally.as_ref().map_or(0, |t| t.accepted_other_side),
         passed,
         adapter: gpu.describe(),
     })
@@ -535,14 +560,14 @@ impl Tally {
 
     /// (value error, relative gradient error) of one device result against
     /// an exact value and gradient.
-    fn errors(&self, v: f32, g: &[f32; 4], ev: f64, eg: &[f64]) -> (f64, f64) {
+    pub(crate) fn errors(&self, v: f32, g: &[f32; 4], ev: f64, eg: &[f64]) -> (f64, f64) {
         let abs = (v as f64 - ev).abs().max((g[0] as f64 - ev).abs());
         let gmax = eg.iter().fold(0f64, |m, x| m.max(x.abs()));
         let diff = (0..3).fold(0f64, |m, i| m.max((g[i + 1] as f64 - eg[i]).abs()));
         (abs, diff / gmax.max(self.data_range))
     }
 
-    fn within(&self, (abs, rel): (f64, f64)) -> bool {
+    pub(crate) fn within(&self, (abs, rel): (f64, f64)) -> bool {
         abs <= VALUE_TOLERANCE * self.data_range && rel <= GRADIENT_TOLERANCE
     }
 

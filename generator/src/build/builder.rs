@@ -3,7 +3,7 @@
 //!
 //! A by-value [`Builder`] collects catalog filters and spec files, then
 //! [`Builder::generate`] derives every filter, emits its module, validates it
-//! with naga (and, for the fast variant, proves `<f>_eval` and `<f>_eval_grad`
+//! with naga (and, for the fast variant, proves `<f>_eval`, `<f>_eval_grad`, `<f>_eval_hessian`
 //! branch-free and table-free), and only then writes
 //! `<filter>.<layout>.wgsl` (or `<filter>.<layout>.naive.wgsl`) atomically.
 //! A module that does not validate is an [`Error::InvalidWgsl`]; it is never
@@ -357,8 +357,8 @@ impl Builder {
 /// A build-time filter slower than this prints a `cargo:warning`.
 pub const SLOW_BUILD_SECONDS: f64 = 3.0;
 
-/// naga validation for every module; the branch-free proof of `<f>_eval`
-/// and `<f>_eval_grad` for the fast variant.
+/// naga validation for every module; the branch-free proof of `<f>_eval`,
+/// `<f>_eval_grad` and (degree >= 2) `<f>_eval_hessian` for the fast variant.
 fn check_module(name: &str, source: &str, path: &Path, variant: Variant) -> Result<()> {
     let report = validate_wgsl(source, &path.display().to_string());
     if !report.valid {
@@ -368,7 +368,12 @@ fn check_module(name: &str, source: &str, path: &Path, variant: Variant) -> Resu
         });
     }
     if variant == Variant::Fast {
-        check_branch_free(&report, &[&format!("{name}_eval"), &format!("{name}_eval_grad")])
+        let hessian = format!("{name}_eval_hessian");
+        let mut required = vec![format!("{name}_eval"), format!("{name}_eval_grad")];
+        if report.function(&hessian).is_some() {
+            required.push(hessian);
+        }
+        check_branch_free(&report, &required.iter().map(String::as_str).collect::<Vec<_>>())
             .map_err(|message| Error::InvalidWgsl { file: path.to_path_buf(), message })?;
     }
     Ok(())

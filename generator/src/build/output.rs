@@ -169,7 +169,7 @@ mod tests {
     /// top-level keys, the keys of a `shaders` entry and of a binding. A
     /// change of layout must change the version too, and then this pin.
     const PINNED: (u32, &[&str], &[&str], &[&str]) = (
-        2,
+        3,
         &[
             "generated_by",
             "schema_version",
@@ -212,6 +212,8 @@ mod tests {
             "matvec_adds",
             "ops_eval",
             "ops_eval_grad",
+            "ops_eval_hessian",
+            "hessian_form",
             "form",
             "forms",
             "bounds",

@@ -9,12 +9,32 @@ use crate::validate::Binding;
 use serde::Serialize;
 use std::fmt::Write;
 
+/// What a filter's continuity means for its derivatives, in one sentence:
+/// where the gradient and the Hessian (`<f>_eval_hessian`, curvature) are
+/// continuous across knot planes and where they jump.
+pub fn smoothness(continuity: i64, degree: usize) -> String {
+    match continuity {
+        k if k >= 2 => {
+            format!("C^{k} across knot planes: value, gradient and Hessian are continuous (curvature is smooth).")
+        }
+        1 => "C^1 across knot planes: value and gradient are continuous; the Hessian jumps across knot planes \
+              (curvature is piecewise, discontinuous at the planes)."
+            .into(),
+        0 if degree >= 2 => "C^0 across knot planes: the gradient and the Hessian jump across knot planes.".into(),
+        0 => "C^0 across knot planes: the gradient jumps across knot planes; pieces are linear, so there is no \
+              eval_hessian (zero inside every cell)."
+            .into(),
+        _ => "discontinuous across knot planes.".into(),
+    }
+}
+
 /// The version of the JSON layout of [`Report`]: raise it whenever a key is
 /// added, removed, renamed or changes meaning, so that readers of the
 /// checked-in reports can tell (a test pins the keys to this number).
 ///
 /// 2: `schema_version` itself and a `bindings` table per shader module.
-pub const REPORT_SCHEMA_VERSION: u32 = 2;
+/// 3: `ops_eval_hessian` and `hessian_form` per shader module (null below degree 2).
+pub const REPORT_SCHEMA_VERSION: u32 = 3;
 
 /// Everything `inspect` shows about one filter and `generate` writes next to its shaders.
 #[derive(Serialize)]
@@ -594,20 +614,23 @@ impl Report {
         );
         let _ = writeln!(s, "{}", e.fetch_order.iter().map(iv).collect::<Vec<_>>().join(" → "));
         if !self.shaders.is_empty() {
-            let _ = writeln!(s, "\n| layout | variant | form | fetches/eval | vector adds | ops in eval | ops in eval_grad |\n|---|---|---|---|---|---|---|");
+            let _ = writeln!(s, "\n| layout | variant | form | fetches/eval | vector adds | ops in eval | ops in eval_grad | eval_hessian form | ops in eval_hessian |\n|---|---|---|---|---|---|---|---|---|");
             for st in self.shaders.iter().map(|sr| &sr.stats) {
                 let _ = writeln!(
                     s,
-                    "| {} | {} | {} | {} | {} | {} | {} |",
+                    "| {} | {} | {} | {} | {} | {} | {} | {} | {} |",
                     st.layout.name(),
                     st.variant.name(),
                     st.form.name(),
                     st.fetches_per_eval,
                     st.vector_adds,
                     st.ops_eval,
-                    st.ops_eval_grad
+                    st.ops_eval_grad,
+                    st.hessian_form.map_or("none", |f| f.name()),
+                    st.ops_eval_hessian.map_or("-".to_string(), |n| n.to_string())
                 );
             }
+            let _ = writeln!(s, "\n{}", smoothness(self.continuity, self.degree));
             let _ = writeln!(s, "\n(ops: operators, comparisons, selects and builtin calls in the WGSL source; the naive variant's loops are counted once. The naive variant keeps the dense form: it measures branches and lookup tables.)");
             if let Some(st) = self.shaders.iter().map(|sr| &sr.stats).find(|st| st.variant.name() == "fast") {
                 let _ = writeln!(
@@ -697,6 +720,7 @@ impl Report {
             "  degree {}, approximation order {}, continuity C^{}",
             self.degree, self.approximation_order, self.continuity
         );
+        let _ = writeln!(s, "  smoothness        {}", smoothness(self.continuity, self.degree));
         let _ = writeln!(s, "  support volume    {}", self.support_volume);
         let _ = writeln!(s, "  knot planes       {} families:", self.knot_planes.len());
         for k in &self.knot_planes {

@@ -1,7 +1,8 @@
 //! The factored form of a tensor-product filter ([`Factorisation`]): per
 //! coset, one-dimensional weights per axis, then a contraction axis by axis
 //! (tricubic: 3 x 4 weights, then 16 + 4 + 1 four-term sums). The gradient
-//! carries derivative weights through the same contraction.
+//! carries derivative weights through the same contraction, the Hessian
+//! second-derivative weights as well.
 
 use super::writer::{linear_combination, lit, Body, Shapes, AXES};
 use crate::derive::factor::{bernstein_01, odometer, Factorisation};
@@ -102,47 +103,54 @@ fn dot(ws: &[String], xs: &[String]) -> String {
     }
 }
 
-/// A partially contracted tensor: which derivative it carries (None: value)
-/// and its entries over the axes not yet contracted (axis-major, first fastest).
+/// A partially contracted tensor: how often it is differentiated along each
+/// axis (all zero: the value) and its entries over the axes not yet
+/// contracted (axis-major, first fastest).
 struct Tensor {
-    deriv: Option<usize>,
+    deriv: Vec<usize>,
     entries: Vec<String>,
 }
 
-/// The body of `<f>_eval` (grad = false) or `<f>_eval_grad` in factored form.
-pub(crate) fn emit_factored_body(fac: &Factorisation, sh: &Shapes, name: &str, grad: bool) -> String {
+/// The body of `<f>_eval` (order 0), `<f>_eval_grad` (order 1) or
+/// `<f>_eval_hessian` (order 2) in factored form: each axis contracts with
+/// its weights, and (while the total order allows) with their first and
+/// second derivatives.
+pub(crate) fn emit_factored_body(fac: &Factorisation, sh: &Shapes, name: &str, order: usize) -> String {
     let s = sh.s;
     let mut body = Body::new();
     let orders: Vec<usize> = fac.axes.iter().map(|a| a.order).collect();
-    let mut coset_values: Vec<String> = Vec::new();
-    let mut coset_grads: Vec<Vec<String>> = Vec::new();
+    let unit = |i: usize, k: usize| -> Vec<usize> {
+        let mut e = vec![0; s];
+        e[i] += k;
+        e
+    };
+    // Per coset: the contracted value of each derivative multi-index.
+    let mut coset_parts: Vec<Vec<(Vec<usize>, String)>> = Vec::new();
     for v in &fac.cosets {
         let sv = body.bind("s", &coset_coordinate(fac, sh, v, "p"));
         let fl = body.bind("fl", &format!("floor({sv})"));
         let t = body.bind("t", &format!("{sv} - {fl}"));
         let steps: Vec<i64> = fac.axes.iter().map(|a| a.step).collect();
         let jb = body.bind("jb", &coset_base(fac, sh, v, &fl));
-        // Weights per axis; the scale is folded into the last axis.
-        let mut w: Vec<Vec<String>> = Vec::new();
-        let mut dw: Vec<Vec<String>> = Vec::new();
+        // Weights per axis and derivative order; the scale is folded into the last axis.
+        let mut w: Vec<Vec<Vec<String>>> = Vec::new();
         for (i, a) in fac.axes.iter().enumerate() {
             let pows = powers(&mut body, &format!("{t}.{}", AXES[i]), a.order - 1);
             let scale = if i == s - 1 { fac.scale.clone() } else { Q::one() };
-            let mut wi = Vec::new();
-            let mut dwi = Vec::new();
+            let mut per_k: Vec<Vec<String>> = vec![Vec::new(); order + 1];
             for piece in &a.pieces {
-                let c: Vec<Q> = piece.iter().map(|x| x.clone() * &scale).collect();
-                let e = poly_expr(&c, &pows);
-                wi.push(if e.contains(' ') || e.contains('*') { body.bind("wt", &e) } else { e });
-                if grad {
-                    // d/dx = (1/a) d/dt.
-                    let dc: Vec<Q> = (1..c.len()).map(|e| c[e].clone() * Q::int(e as i64) / Q::int(a.step)).collect();
-                    let de = poly_expr(&dc, &pows);
-                    dwi.push(if de.contains(' ') || de.contains('*') { body.bind("dwt", &de) } else { de });
+                let mut c: Vec<Q> = piece.iter().map(|x| x.clone() * &scale).collect();
+                for (k, wk) in per_k.iter_mut().enumerate() {
+                    if k > 0 {
+                        // d/dx = (1/a) d/dt.
+                        c = (1..c.len()).map(|e| c[e].clone() * Q::int(e as i64) / Q::int(a.step)).collect();
+                    }
+                    let e = poly_expr(&c, &pows);
+                    let prefix = ["wt", "dwt", "ddwt"][k];
+                    wk.push(if e.contains(' ') || e.contains('*') { body.bind(prefix, &e) } else { e });
                 }
             }
-            w.push(wi);
-            dw.push(dwi);
+            w.push(per_k);
         }
         // Fetches in odometer order (axis 0 fastest).
         let samples: Vec<String> = odometer(&orders)
@@ -154,21 +162,20 @@ pub(crate) fn emit_factored_body(fac: &Factorisation, sh: &Shapes, name: &str, g
             })
             .collect();
         // Contract axis by axis.
-        let mut tensors = vec![Tensor { deriv: None, entries: samples }];
+        let mut tensors = vec![Tensor { deriv: vec![0; s], entries: samples }];
         for i in 0..s {
             let n = orders[i];
             let mut next = Vec::new();
             for tz in &tensors {
-                let mut variants: Vec<(Option<usize>, &Vec<String>)> = vec![(tz.deriv, &w[i])];
-                if grad && tz.deriv.is_none() {
-                    variants.push((Some(i), &dw[i]));
-                }
-                for (deriv, ws) in variants {
+                let used: usize = tz.deriv.iter().sum();
+                for k in 0..=(order - used) {
+                    let mut deriv = tz.deriv.clone();
+                    deriv[i] = k;
                     let entries: Vec<String> = tz
                         .entries
                         .chunks(n)
                         .map(|xs| {
-                            let e = dot(ws, xs);
+                            let e = dot(&w[i][k], xs);
                             if e.contains(' ') {
                                 body.bind("c", &e)
                             } else {
@@ -181,34 +188,48 @@ pub(crate) fn emit_factored_body(fac: &Factorisation, sh: &Shapes, name: &str, g
             }
             tensors = next;
         }
-        let value = tensors
-            .iter()
-            .find(|t| t.deriv.is_none())
-            .map(|t| t.entries[0].clone())
-            .expect("the underived tensor is kept through every axis");
-        coset_values.push(value);
-        if grad {
-            coset_grads.push(
-                (0..s)
-                    .map(|i| {
-                        tensors
-                            .iter()
-                            .find(|t| t.deriv == Some(i))
-                            .map(|t| t.entries[0].clone())
-                            .expect("with grad, axis i adds the tensor of d/dx_i, kept through the later axes")
-                    })
-                    .collect(),
-            );
-        }
+        coset_parts.push(tensors.into_iter().map(|t| (t.deriv, t.entries[0].clone())).collect());
     }
-    let value = coset_values.join(" + ");
-    if !grad {
+    let total = |e: &[usize]| -> String {
+        coset_parts
+            .iter()
+            .map(|parts| {
+                parts
+                    .iter()
+                    .find(|(d, _)| d == e)
+                    .map(|(_, x)| x.clone())
+                    .expect("every derivative multi-index up to the order is kept through every axis")
+            })
+            .collect::<Vec<_>>()
+            .join(" + ")
+    };
+    let value = total(&vec![0; s]);
+    if order == 0 {
         body.line(&format!("return {value};"));
         return body.text;
     }
-    let g: Vec<String> =
-        (0..s).map(|i| coset_grads.iter().map(|g| g[i].clone()).collect::<Vec<_>>().join(" + ")).collect();
-    body.line(&format!("return vec{}<f32>({value}, {});", s + 1, g.join(", ")));
+    let g: Vec<String> = (0..s).map(|i| total(&unit(i, 1))).collect();
+    if order == 1 {
+        body.line(&format!("return vec{}<f32>({value}, {});", s + 1, g.join(", ")));
+        return body.text;
+    }
+    let value = body.bind("val", &value);
+    let g = body.bind("gx", &sh.fvec(&g));
+    let entry = |i: usize, j: usize| -> Vec<usize> {
+        let mut e = unit(i, 1);
+        e[j] += 1;
+        e
+    };
+    let mut upper = vec![String::new(); s * s];
+    for i in 0..s {
+        for j in i..s {
+            let t = total(&entry(i, j));
+            upper[i * s + j] = if t.contains(' ') { body.bind("hs", &t) } else { t };
+        }
+    }
+    let cols: Vec<String> =
+        (0..s).map(|j| sh.fvec(&(0..s).map(|i| upper[i.min(j) * s + i.max(j)].clone()).collect::<Vec<_>>())).collect();
+    body.line(&format!("return {name}_Hessian({value}, {g}, mat{s}x{s}<f32>({}));", cols.join(", ")));
     body.text
 }
 

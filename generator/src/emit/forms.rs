@@ -42,8 +42,10 @@ pub(crate) fn form_weights(form: &Form) -> (Vec<Vec<u32>>, Vec<Vec<Q>>) {
     }
 }
 
-/// Evaluates a form at local coordinates `u` from its coefficient names.
-/// Returns (value, gradient in u as a vector expression or None).
+/// Evaluates a form at local coordinates `u` from its coefficient names,
+/// with derivatives up to `order` (0, 1 or 2). Returns (value, gradient in u
+/// as a vector expression when order >= 1, Hessian in u as s x s scalar
+/// expressions, row-major, when order >= 2).
 #[allow(clippy::too_many_arguments)] // one emitter, its inputs are independent
 pub(crate) fn emit_form_eval(
     body: &mut Body,
@@ -52,10 +54,11 @@ pub(crate) fn emit_form_eval(
     indices: &[Vec<u32>],
     coeffs: &[String],
     u: &str,
-    grad: bool,
+    order: usize,
     degree: usize,
-) -> (String, Option<String>) {
+) -> (String, Option<String>, Vec<String>) {
     let s = sh.s;
+    let grad = order >= 1;
     match form {
         Form::Bb(bb) => {
             // Barycentric coordinates: lambda_i = affine(u).
@@ -83,12 +86,21 @@ pub(crate) fn emit_form_eval(
                 })
                 .collect();
             if degree == 0 {
-                return (coeffs[0].clone(), grad.then(|| format!("{}(0.0)", sh.vecf)));
+                let zeros = if order >= 2 { vec!["0.0".to_string(); s * s] } else { vec![] };
+                return (coeffs[0].clone(), grad.then(|| format!("{}(0.0)", sh.vecf)), zeros);
+            }
+            if order >= 2 && degree == 1 {
+                // Linear pieces: the Hessian is zero inside every cell.
+                let (v, g, _) = emit_form_eval(body, sh, form, indices, coeffs, u, 1, degree);
+                return (v, g, vec!["0.0".to_string(); s * s]);
             }
             // de Casteljau down to degree 1.
             const LEVEL: &str =
                 "level holds every multi-index of degree l + 1 (the BB indices, then each step's lower level)";
             let mut level: Vec<(Vec<u32>, String)> = indices.iter().cloned().zip(coeffs.iter().cloned()).collect();
+            // The degree-2 level: its coefficients c_{e_i + e_j} give the Hessian,
+            // d (d - 1) sum_ij c_{e_i + e_j} grad(lambda_i) grad(lambda_j)^T.
+            let mut level2 = (degree == 2).then(|| level.clone());
             for l in (1..degree).rev() {
                 let lower: Vec<Vec<u32>> = crate::math::poly::Monomials::get(s + 1, l)
                     .exps
@@ -110,6 +122,9 @@ pub(crate) fn emit_form_eval(
                     next.push((beta, n));
                 }
                 level = next;
+                if l == 2 {
+                    level2 = Some(level.clone());
+                }
             }
             let unit = |i: usize| -> String {
                 let mut a = vec![0u32; s + 1];
@@ -127,7 +142,57 @@ pub(crate) fn emit_form_eval(
                     .collect();
                 body.bind("g", &format!("{} * {}", flit(degree as f32), sh.fvec(&comps)))
             });
-            (value, g)
+            let mut hess = Vec::new();
+            if order >= 2 {
+                let level2 = level2.expect("degree >= 2 passes through the degree-2 level");
+                let c2 = |i: usize, j: usize| -> String {
+                    let mut a = vec![0u32; s + 1];
+                    a[i] += 1;
+                    a[j] += 1;
+                    level2.iter().find(|(e, _)| *e == a).expect(LEVEL).1.clone()
+                };
+                // t[j][p] = sum_i d(lambda_i)/du_p c_{e_i + e_j}.
+                let t: Vec<Vec<String>> = (0..=s)
+                    .map(|j| {
+                        (0..s)
+                            .map(|p| {
+                                let terms: Vec<(Q, String)> =
+                                    (0..=s).map(|i| (grads[i][p].clone(), c2(i, j))).collect();
+                                let e = linear_combination(&terms);
+                                if e == "0.0" {
+                                    e
+                                } else {
+                                    body.bind("ht", &e)
+                                }
+                            })
+                            .collect()
+                    })
+                    .collect();
+                let scale = Q::int((degree * (degree - 1)) as i64);
+                let mut upper = vec![String::new(); s * s];
+                for p in 0..s {
+                    for q in p..s {
+                        let terms: Vec<(Q, String)> = (0..=s)
+                            .filter(|&j| t[j][p] != "0.0")
+                            .map(|j| (&grads[j][q] * &scale, t[j][p].clone()))
+                            .collect();
+                        let e = linear_combination(&terms);
+                        upper[p * s + q] = if e == "0.0" { e } else { body.bind("hs", &e) };
+                    }
+                }
+                hess = (0..s * s)
+                    .map(|i| if i / s <= i % s { upper[i].clone() } else { upper[(i % s) * s + i / s].clone() })
+                    .collect();
+            }
+            (value, g, hess)
+        }
+        Form::Power(_) if order >= 2 => {
+            let vars: Vec<String> = (0..s).map(|i| format!("{u}.{}", AXES[i])).collect();
+            let monomials: Vec<(Vec<u32>, String)> = indices.iter().cloned().zip(coeffs.iter().cloned()).collect();
+            let (v, g, h) = crate::emit::horner::emit_horner(body, &monomials, &vars, order);
+            let v = body.bind("v", &v);
+            let g = body.bind("g", &sh.fvec(&g));
+            (v, Some(g), h)
         }
         Form::Power(_) => {
             // Powers of each coordinate, then monomials.
@@ -195,7 +260,7 @@ pub(crate) fn emit_form_eval(
                     .collect();
                 body.bind("g", &sh.fvec(&comps))
             });
-            (value, g)
+            (value, g, vec![])
         }
     }
 }

@@ -322,20 +322,27 @@ pub(crate) fn local_coords(sh: &Shapes, d: &Derivation, plan: &Plan, c: &Candida
     }
 }
 
-/// One reference piece's emitted value: (reference, value expression, gradient expression).
-type PieceValue = (usize, String, Option<String>);
+/// One reference piece's emitted value: (reference, value expression,
+/// gradient expression, Hessian entries row-major when asked).
+type PieceValue = (usize, String, Option<String>, Vec<String>);
 
-/// The body of eval (grad = false) or eval_grad.
+/// The body of eval (order 0), eval_grad (order 1) or eval_hessian (order 2,
+/// returning `<name>_Hessian`). The ridge form has no second-order code: with
+/// order 2 it is written as the power form.
 pub(crate) fn emit_eval_body(
     d: &Derivation,
     plan: &Plan,
     sh: &Shapes,
     name: &str,
-    grad: bool,
+    order: usize,
     style: &dyn BodyStyle,
     piece: PieceForm,
 ) -> String {
-    let piece = style.piece_form(piece);
+    let grad = order >= 1;
+    let mut piece = style.piece_form(piece);
+    if order >= 2 && piece == PieceForm::Ridge {
+        piece = PieceForm::Power;
+    }
     let mut body = Body::new();
     let frame = style.frame(&mut body, sh, plan, name);
     let ci = emit_candidate_choice(&mut body, sh, plan, &frame, style);
@@ -380,7 +387,7 @@ pub(crate) fn emit_eval_body(
             }
             acc
         };
-        let (v, g) = match (&form, piece) {
+        let (v, g, h) = match (&form, piece) {
             _ if ridge.is_some() => {
                 let rf = ridge.expect("checked by the guard");
                 let vars: Vec<String> = (0..sh.s).map(|i| format!("{u}.{}", AXES[i])).collect();
@@ -401,25 +408,25 @@ pub(crate) fn emit_eval_body(
                 let (_, b, v, g) = best.expect("two candidates were emitted");
                 body.text.push_str(&b.text);
                 body.next = b.next;
-                (v, g)
+                (v, g, vec![])
             }
             (Form::Power(_), PieceForm::Power | PieceForm::Bb | PieceForm::Ridge) => {
                 let vars: Vec<String> = (0..sh.s).map(|i| format!("{u}.{}", AXES[i])).collect();
                 let monomials: Vec<(Vec<u32>, String)> = indices.iter().cloned().zip(coeffs.iter().cloned()).collect();
-                let (v, g) = crate::emit::horner::emit_horner(&mut body, &monomials, &vars, grad);
+                let (v, g, h) = crate::emit::horner::emit_horner(&mut body, &monomials, &vars, order);
                 let v = body.bind("v", &v);
-                (v, grad.then(|| body.bind("g", &sh.fvec(&g))))
+                (v, grad.then(|| body.bind("g", &sh.fvec(&g))), h)
             }
-            _ => emit_form_eval(&mut body, sh, &form, &indices, &coeffs, &u, grad, d.facts.degree),
+            _ => emit_form_eval(&mut body, sh, &form, &indices, &coeffs, &u, order, d.facts.degree),
         };
-        values.push((r, v, g));
+        values.push((r, v, g, h));
     }
     // Pick the chosen candidate's reference.
     const USED: &str = "values holds every used reference, and used_references are the candidates' references";
     let ref_of: Vec<usize> = plan.candidates.iter().map(|c| c.reference).collect();
     let pick = |body: &mut Body, which: &dyn Fn(&PieceValue) -> String, prefix: &str| {
         let per_cand: Vec<String> =
-            ref_of.iter().map(|r| which(values.iter().find(|(rr, _, _)| rr == r).expect(USED))).collect();
+            ref_of.iter().map(|r| which(values.iter().find(|(rr, ..)| rr == r).expect(USED))).collect();
         select_by_candidate(body, &ci, &per_cand, prefix)
     };
     let value = pick(&mut body, &|t| t.1.clone(), "val");
@@ -434,7 +441,7 @@ pub(crate) fn emit_eval_body(
         .map(|c| {
             let g = values
                 .iter()
-                .find(|(rr, _, _)| *rr == c.reference)
+                .find(|(rr, ..)| *rr == c.reference)
                 .expect(USED)
                 .2
                 .clone()
@@ -446,6 +453,52 @@ pub(crate) fn emit_eval_body(
     let gw = select_by_candidate(&mut body, &ci, &gw_terms, "gw");
     let gx: Vec<String> = (0..sh.s).map(|i| format!("{}({}) * {gw}.{}", sh.vecf, frame.cols[i], AXES[i])).collect();
     let gx = body.bind("gx", &gx.join(" + "));
-    body.line(&format!("return vec{}<f32>({value}, {gx});", sh.s + 1));
+    if order < 2 {
+        body.line(&format!("return vec{}<f32>({value}, {gx});", sh.s + 1));
+        return body.text;
+    }
+    // Hessian: H_w = R^T H_u R per candidate (column j of H_w is column k of
+    // H_u, where R[k][j] = +-1, permuted by R^T and signed), then H_x = M H_w M^T.
+    let s = sh.s;
+    let hu_cols: Vec<(usize, Vec<String>)> = values
+        .iter()
+        .map(|(r, _, _, h)| {
+            let cols = (0..s)
+                .map(|k| {
+                    let comps: Vec<String> = (0..s).map(|i| h[i * s + k].clone()).collect();
+                    if comps.iter().all(|c| c == "0.0") {
+                        format!("{}(0.0)", sh.vecf)
+                    } else {
+                        body.bind("hc", &sh.fvec(&comps))
+                    }
+                })
+                .collect();
+            (*r, cols)
+        })
+        .collect();
+    let hw_cols: Vec<String> = (0..s)
+        .map(|j| {
+            let per_cand: Vec<String> = plan
+                .candidates
+                .iter()
+                .map(|c| {
+                    let cols = &hu_cols.iter().find(|(rr, _)| *rr == c.reference).expect(USED).1;
+                    let (k, sgn) = (0..s)
+                        .find_map(|k| (c.rotation[k][j] != 0).then_some((k, c.rotation[k][j])))
+                        .expect("every column of a signed permutation has one non-zero entry");
+                    let col = sh.perm_apply(&crate::derive::symmetry::inverse(&c.rotation), &cols[k]);
+                    let e = if sgn > 0 { col } else { format!("-{col}") };
+                    body.bind("hw", &e)
+                })
+                .collect();
+            select_by_candidate(&mut body, &ci, &per_cand, "hw")
+        })
+        .collect();
+    let mat = format!("mat{s}x{s}<f32>");
+    let hw = body.bind("hm", &format!("{mat}({})", hw_cols.join(", ")));
+    let m_cols: Vec<String> = frame.cols.iter().map(|c| format!("{}({c})", sh.vecf)).collect();
+    let mf = body.bind("mf", &format!("{mat}({})", m_cols.join(", ")));
+    let hx = body.bind("hx", &format!("{mf} * {hw} * transpose({mf})"));
+    body.line(&format!("return {name}_Hessian({value}, {gx}, {hx});"));
     body.text
 }

@@ -308,6 +308,11 @@ pub struct EmitStats {
     pub ops_eval: usize,
     /// The same count for `eval_grad`.
     pub ops_eval_grad: usize,
+    /// The same count for `eval_hessian` (None below degree 2, where the module has none).
+    pub ops_eval_hessian: Option<usize>,
+    /// The form of `eval_hessian`: the cheapest by its op count among the
+    /// forms with second-order code (or the requested one; ridge is written as power).
+    pub hessian_form: Option<EvalForm>,
     /// The form used, and the static cost of every form available here.
     pub form: EvalForm,
     /// Static cost of every form available here (see [`FormCost`]).
@@ -403,8 +408,8 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
     }
     let (form, forms, eval_body, grad_body) = if naive {
         // The naive variant measures branches and tables, on the dense form.
-        let e = emit_eval_body(d, &plan, &sh, name, false, &Naive, PieceForm::Dense);
-        let g = emit_eval_body(d, &plan, &sh, name, true, &Naive, PieceForm::Dense);
+        let e = emit_eval_body(d, &plan, &sh, name, 0, &Naive, PieceForm::Dense);
+        let g = emit_eval_body(d, &plan, &sh, name, 1, &Naive, PieceForm::Dense);
         let cost = FormCost {
             form: EvalForm::Dense,
             fetches: plan.fetches(),
@@ -414,6 +419,15 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
         (EvalForm::Dense, vec![cost], e, g)
     } else {
         choose_form(d, fac.as_ref(), &plan, &sh, name, requested)?
+    };
+    // Second order: filters of degree >= 2 (a linear piece's Hessian is zero).
+    let hessian = if d.facts.degree < 2 {
+        None
+    } else if naive {
+        let h = emit_eval_body(d, &plan, &sh, name, 2, &Naive, PieceForm::Dense);
+        Some(HessianCost { form: EvalForm::Dense, ops: count_ops(&h), body: h })
+    } else {
+        Some(choose_hessian_form(d, fac.as_ref(), &plan, &sh, name, requested, form))
     };
     let (eval_body, fetches_linear) = if opts.fetch == FetchMode::Linear {
         let refuse = |why: &str| Error::Unsupported {
@@ -466,6 +480,16 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
     } else {
         (eval_body, grad_body)
     };
+    let hessian_body = hessian.as_ref().map(|h| {
+        if opts.layout.is_bricked() {
+            format!(
+                "    let brick_page = {name}_page(p);\n{}",
+                h.body.replace(&format!("{name}_fetch("), &format!("{name}_fetch_in(brick_page, "))
+            )
+        } else {
+            h.body.clone()
+        }
+    });
     // The factored form adds one constant offset per fetch after each coset's base.
     let vector_adds = match (&fac, form) {
         (Some(f), EvalForm::Factored) if opts.layout == Layout::Embedded || fetches_linear.is_none() => {
@@ -560,6 +584,10 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
         helpers => helper_text,
         eval_body => eval_body.clone(),
         grad_body => grad_body.clone(),
+        hessian_body => hessian_body.clone().unwrap_or_default(),
+        has_hessian => hessian_body.is_some(),
+        hessian_form => hessian.as_ref().map(|h| h.form.name()).unwrap_or(""),
+        matf => format!("mat{s}x{s}<f32>"),
         has_kernels => opts.kernels,
         extent_product => extent_product,
         delinearize => delinearize,
@@ -588,6 +616,8 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
         matvec_adds: if form == EvalForm::Factored { vector_adds } else { plan.matvec_adds },
         ops_eval: count_ops(&eval_body),
         ops_eval_grad: count_ops(&grad_body),
+        ops_eval_hessian: hessian_body.as_deref().map(count_ops),
+        hessian_form: hessian.as_ref().map(|h| h.form),
         form,
         forms,
         bounds: opts.bounds,
@@ -653,8 +683,8 @@ fn choose_form(
     let wanted = |f: EvalForm| requested == EvalForm::Auto || requested == f;
     if let Some(fac) = fac {
         if wanted(EvalForm::Factored) {
-            let e = factored::emit_factored_body(fac, sh, name, false);
-            let g = factored::emit_factored_body(fac, sh, name, true);
+            let e = factored::emit_factored_body(fac, sh, name, 0);
+            let g = factored::emit_factored_body(fac, sh, name, 1);
             bodies.push((EvalForm::Factored, fac.fetches(), e, g));
         }
     }
@@ -668,8 +698,8 @@ fn choose_form(
         (EvalForm::Dense, PieceForm::Dense),
     ] {
         if wanted(f) && !skip_plan_forms && (f != EvalForm::Ridge || ridge_ok) {
-            let e = emit_eval_body(d, plan, sh, name, false, &Fast, piece);
-            let g = emit_eval_body(d, plan, sh, name, true, &Fast, piece);
+            let e = emit_eval_body(d, plan, sh, name, 0, &Fast, piece);
+            let g = emit_eval_body(d, plan, sh, name, 1, &Fast, piece);
             bodies.push((f, plan.fetches(), e, g));
         }
     }
@@ -682,6 +712,53 @@ fn choose_form(
     );
     let (f, _, e, g) = bodies.swap_remove(best);
     Ok((f, forms, e, g))
+}
+
+/// One emitted `eval_hessian` body with its form and static op count.
+struct HessianCost {
+    form: EvalForm,
+    ops: usize,
+    body: String,
+}
+
+/// The `eval_hessian` body: the requested form's second-order code (ridge,
+/// which has none, as power), or (auto) the cheapest of factored, power, bb
+/// bb by static op count (dense is bb without shared subexpressions); ties
+/// go to the eval form, then that order.
+fn choose_hessian_form(
+    d: &Derivation,
+    fac: Option<&Factorisation>,
+    plan: &Plan,
+    sh: &Shapes,
+    name: &str,
+    requested: EvalForm,
+    eval_form: EvalForm,
+) -> HessianCost {
+    let plan_body = |piece: PieceForm| emit_eval_body(d, plan, sh, name, 2, &Fast, piece);
+    let one = |form: EvalForm, body: String| HessianCost { form, ops: count_ops(&body), body };
+    match (requested, fac) {
+        (EvalForm::Factored, Some(fac)) => {
+            return one(EvalForm::Factored, factored::emit_factored_body(fac, sh, name, 2))
+        }
+        (EvalForm::Power | EvalForm::Ridge, _) => return one(EvalForm::Power, plan_body(PieceForm::Power)),
+        (EvalForm::Bb, _) => return one(EvalForm::Bb, plan_body(PieceForm::Bb)),
+        (EvalForm::Dense, _) => return one(EvalForm::Dense, plan_body(PieceForm::Dense)),
+        _ => {}
+    }
+    let mut all: Vec<HessianCost> = Vec::new();
+    if let Some(fac) = fac {
+        all.push(one(EvalForm::Factored, factored::emit_factored_body(fac, sh, name, 2)));
+    }
+    // As for eval: large tensor products skip the plan-based forms.
+    if !(fac.is_some() && plan.fetches() > 64) {
+        for (f, piece) in [(EvalForm::Power, PieceForm::Power), (EvalForm::Bb, PieceForm::Bb)] {
+            all.push(one(f, plan_body(piece)));
+        }
+    }
+    let best = (0..all.len())
+        .min_by_key(|&i| (all[i].ops, all[i].form != eval_form, i))
+        .expect("factored is available when the plan forms are skipped");
+    all.swap_remove(best)
 }
 
 /// The templates, embedded at build time so the generator works as a

@@ -8,7 +8,10 @@ pub mod oracle;
 use crate::derive::Derivation;
 use crate::math::exact::Q;
 use crate::math::linalg::{add_i, sub_q, to_q, IVec, QVec};
-use crate::math::poly::eval_poly_f64;
+use crate::math::poly::{eval_poly_f64, eval_poly_f64_hessian};
+
+/// Value, gradient and Hessian (row-major s x s) at a point.
+pub type SecondOrder = (f64, Vec<f64>, Vec<f64>);
 
 /// Where a point falls: its cell (in the representative cube) and the
 /// lattice vector l that moves the representative cube onto the point's cube.
@@ -82,6 +85,18 @@ impl Derivation {
 
     /// f64 evaluation: value and gradient (∂/∂x), through the same maps.
     pub fn eval_f64(&self, x: &[f64], data: &dyn Fn(&[i64]) -> f64) -> (f64, Vec<f64>) {
+        let (v, g, _) = self.eval_f64_order(x, data, 1);
+        (v, g)
+    }
+
+    /// f64 evaluation: value, gradient and Hessian (∂²/∂x_i∂x_j, row-major),
+    /// through the same maps.
+    pub fn eval_f64_hessian(&self, x: &[f64], data: &dyn Fn(&[i64]) -> f64) -> SecondOrder {
+        self.eval_f64_order(x, data, 2)
+    }
+
+    /// Value, gradient and (order 2) Hessian; the Hessian is empty below order 2.
+    fn eval_f64_order(&self, x: &[f64], data: &dyn Fn(&[i64]) -> f64, order: usize) -> SecondOrder {
         let t = self.f64_tables();
         let s = x.len();
         let arr = &self.arrangement;
@@ -104,7 +119,7 @@ impl Derivation {
             .max_by(|a, b| a.1.total_cmp(&b.1))
             .expect("every cube class has at least one cell")
             .0;
-        self.eval_f64_in_cell(cell, &l, &xr, data)
+        self.eval_f64_in_cell(cell, &l, &xr, data, order)
     }
 }
 
@@ -117,6 +132,15 @@ impl Derivation {
     /// cell, farther than `tol` from its facets, gets one entry, equal to
     /// [`Derivation::eval_f64`]; the list is never empty.
     pub fn eval_f64_pieces_near(&self, x: &[f64], data: &dyn Fn(&[i64]) -> f64, tol: f64) -> Vec<(f64, Vec<f64>)> {
+        self.pieces_near(x, data, tol, 1).into_iter().map(|(v, g, _)| (v, g)).collect()
+    }
+
+    /// [`Derivation::eval_f64_pieces_near`] with each piece's Hessian.
+    pub fn eval_f64_pieces_near_hessian(&self, x: &[f64], data: &dyn Fn(&[i64]) -> f64, tol: f64) -> Vec<SecondOrder> {
+        self.pieces_near(x, data, tol, 2)
+    }
+
+    fn pieces_near(&self, x: &[f64], data: &dyn Fn(&[i64]) -> f64, tol: f64, order: usize) -> Vec<SecondOrder> {
         let t = self.f64_tables();
         let s = x.len();
         let arr = &self.arrangement;
@@ -140,7 +164,7 @@ impl Derivation {
                     })
                     .fold(f64::INFINITY, f64::min);
                 if slack >= -tol {
-                    out.push(self.eval_f64_in_cell(cell, &l, &xr, data));
+                    out.push(self.eval_f64_in_cell(cell, &l, &xr, data, order));
                 }
             }
             // Next cube corner in the box of candidates.
@@ -155,14 +179,22 @@ impl Derivation {
             z[axis] += 1;
         }
         if out.is_empty() {
-            out.push(self.eval_f64(x, data));
+            out.push(self.eval_f64_order(x, data, order));
         }
         out
     }
 
     /// The polynomial of `cell` (in the cube moved by the lattice vector `l`)
-    /// at xr = x - l, extrapolated when xr is outside the cell: value and ∂/∂x.
-    fn eval_f64_in_cell(&self, cell: usize, l: &[i64], xr: &[f64], data: &dyn Fn(&[i64]) -> f64) -> (f64, Vec<f64>) {
+    /// at xr = x - l, extrapolated when xr is outside the cell: value, ∂/∂x
+    /// and ∂²/∂x².
+    fn eval_f64_in_cell(
+        &self,
+        cell: usize,
+        l: &[i64],
+        xr: &[f64],
+        data: &dyn Fn(&[i64]) -> f64,
+        order: usize,
+    ) -> SecondOrder {
         let t = self.f64_tables();
         let s = xr.len();
         let map = &self.maps[cell];
@@ -185,8 +217,24 @@ impl Derivation {
                 *acc += c * coef;
             }
         }
-        let (value, grad_u) = eval_poly_f64(&tab.exps, &combined, &u);
-        let grad: Vec<f64> = (0..s).map(|i| (0..s).map(|k| map.rotation[k][i] as f64 * grad_u[k]).sum()).collect();
-        (value, grad)
+        let (value, grad_u, hess_u) = if order >= 2 {
+            eval_poly_f64_hessian(&tab.exps, &combined, &u)
+        } else {
+            let (v, g) = eval_poly_f64(&tab.exps, &combined, &u);
+            (v, g, vec![])
+        };
+        let rot = |k: usize, i: usize| map.rotation[k][i] as f64;
+        let grad: Vec<f64> = (0..s).map(|i| (0..s).map(|k| rot(k, i) * grad_u[k]).sum()).collect();
+        // y = R x + t: H_x = R^T H_u R.
+        let hess: Vec<f64> = (0..if order >= 2 { s * s } else { 0 })
+            .map(|ij| {
+                let (i, j) = (ij / s, ij % s);
+                (0..s)
+                    .flat_map(|k| (0..s).map(move |m| (k, m)))
+                    .map(|(k, m)| rot(k, i) * rot(m, j) * hess_u[k * s + m])
+                    .sum()
+            })
+            .collect();
+        (value, grad, hess)
     }
 }

@@ -325,9 +325,60 @@ pub fn eval_poly_f64(exps: &[Vec<u32>], coeffs: &[f64], u: &[f64]) -> (f64, Vec<
     (v, g)
 }
 
+/// Value, gradient and Hessian (row-major s x s) of sum_e c_e u^e in f64.
+pub fn eval_poly_f64_hessian(exps: &[Vec<u32>], coeffs: &[f64], u: &[f64]) -> (f64, Vec<f64>, Vec<f64>) {
+    let s = u.len();
+    let (v, g) = eval_poly_f64(exps, coeffs, u);
+    let mut h = vec![0.0; s * s];
+    for (e, &c) in exps.iter().zip(coeffs) {
+        if c == 0.0 {
+            continue;
+        }
+        for a in 0..s {
+            for b in a..s {
+                let mut k: Vec<i64> = e.iter().map(|&x| i64::from(x)).collect();
+                let mut m = c * k[a] as f64;
+                k[a] -= 1;
+                m *= k[b] as f64;
+                k[b] -= 1;
+                if m == 0.0 {
+                    continue;
+                }
+                for i in 0..s {
+                    m *= u[i].powi(k[i] as i32);
+                }
+                h[a * s + b] += m;
+                if a != b {
+                    h[b * s + a] += m;
+                }
+            }
+        }
+    }
+    (v, g, h)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn f64_hessian_matches_differences_of_the_gradient() {
+        let exps: Vec<Vec<u32>> = vec![vec![2, 1, 0], vec![0, 3, 1], vec![1, 1, 1], vec![0, 0, 2], vec![1, 0, 0]];
+        let coeffs = [0.5, -1.25, 2.0, 0.75, 3.0];
+        let u = [0.3, -0.6, 0.45];
+        let (_, _, h) = eval_poly_f64_hessian(&exps, &coeffs, &u);
+        let eps = 1e-5;
+        for a in 0..3 {
+            for b in 0..3 {
+                let (mut up, mut dn) = (u, u);
+                up[b] += eps;
+                dn[b] -= eps;
+                let fd =
+                    (eval_poly_f64(&exps, &coeffs, &up).1[a] - eval_poly_f64(&exps, &coeffs, &dn).1[a]) / (2.0 * eps);
+                assert!((h[a * 3 + b] - fd).abs() < 1e-7, "d2/du{a}du{b}: {} vs {fd}", h[a * 3 + b]);
+            }
+        }
+    }
 
     #[test]
     fn basis_sizes() {

@@ -88,6 +88,11 @@ pub fn verify_target(
             data_range: range,
             near_knot_points: tally.near_knot_points,
             accepted_other_side: tally.accepted_other_side,
+            // Translations are checked on eval and eval_grad; the WGSL
+            // module's eval_hessian is checked by `verify` on the device.
+            hessian_form: None,
+            max_rel_hessian_err: None,
+            hessian_accepted_other_side: 0,
             passed,
             adapter: evaluator.how.clone(),
         },

@@ -13,18 +13,25 @@ fn catalog_modules_validate_and_fast_ones_are_branch_free() {
         let name = &d.filter.name;
         let eval = format!("{name}_eval");
         let grad = format!("{name}_eval_grad");
+        let hessian = format!("{name}_eval_hessian");
         for layout in ALL_LAYOUTS {
             for variant in ALL_VARIANTS {
                 let e = emit(&d, &EmitOptions { layout, variant, ..EmitOptions::default() }).unwrap();
                 let r = validate_wgsl(&e.source, &e.file_name);
                 assert!(r.valid, "{}: {}", e.file_name, r.error.unwrap_or_default());
-                let proof = check_branch_free(&r, &[&eval, &grad]);
+                // Second order for every filter of degree >= 2, none below.
+                assert_eq!(r.function(&hessian).is_some(), d.facts.degree >= 2, "{}: {hessian}", e.file_name);
+                let mut required = vec![eval.as_str(), grad.as_str()];
+                if d.facts.degree >= 2 {
+                    required.push(&hessian);
+                }
+                let proof = check_branch_free(&r, &required);
                 match variant {
                     boxforge::emit::Variant::Fast => {
                         proof.unwrap_or_else(|err| panic!("{}: {err}", e.file_name));
                         // Bricked: one page-table load per evaluation, not per fetch.
                         let pages = usize::from(layout.is_bricked());
-                        for f in [&eval, &grad] {
+                        for f in &required {
                             let loads = r.function(f).unwrap().total_loads;
                             assert_eq!(loads, e.stats.fetches_per_eval + pages, "{}: {f} loads", e.file_name);
                         }

@@ -36,7 +36,7 @@ enum Command {
     /// Validate any WGSL file with naga and prove functions branch-free and
     /// table-free (no if/switch/loop/discard, no dynamically indexed arrays).
     Validate(validate::ValidateArgs),
-    /// Evaluate a filter's eval / eval_grad on the GPU at random points of a
+    /// Evaluate a filter's eval / eval_grad / eval_hessian on the GPU at random points of a
     /// random volume and compare with the exact evaluator (f64).
     Verify(verify::VerifyArgs),
     /// Render an isosurface (or, with --mode dvr, a direct volume rendering) to PNG on the GPU.

@@ -11,7 +11,7 @@ use boxforge::back::{self, Target};
 pub struct ValidateArgs {
     file: std::path::PathBuf,
     /// Functions that must be branch-free (default: every function named
-    /// *_eval or *_eval_grad).
+    /// *_eval, *_eval_grad or *_eval_hessian).
     #[arg(long = "entry")]
     entries: Vec<String>,
     #[arg(long)]
@@ -80,7 +80,7 @@ pub fn run(a: ValidateArgs) -> Result<(), Failure> {
         report
             .functions
             .iter()
-            .filter(|f| f.name.ends_with("_eval") || f.name.ends_with("_eval_grad"))
+            .filter(|f| ["_eval", "_eval_grad", "_eval_hessian"].iter().any(|e| f.name.ends_with(e)))
             .map(|f| f.name.clone())
             .collect()
     } else {

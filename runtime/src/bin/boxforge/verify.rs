@@ -131,8 +131,16 @@ pub fn run(a: VerifyArgs) -> Result<(), Failure> {
 
 /// The measured part of a report's line, and its verdict.
 fn results(r: &boxforge_runtime::verify::VerifyReport) -> String {
+    let hessian = match (r.hessian_form, r.max_rel_hessian_err) {
+        (Some(form), Some(err)) => format!(
+            ", eval_hessian (form {}) max relative Hessian error {err:.3e} ({} matched the piece across a knot plane)",
+            form.name(),
+            r.hessian_accepted_other_side
+        ),
+        _ => String::new(),
+    };
     format!(
-        "{} points, max |value error| {:.3e} (range {:.3}), max relative gradient error {:.3e}, {} near a knot plane ({} matched the piece across it): {}",
+        "{} points, max |value error| {:.3e} (range {:.3}), max relative gradient error {:.3e}, {} near a knot plane ({} matched the piece across it){hessian}: {}",
         r.points,
         r.max_abs_err,
         r.data_range,
