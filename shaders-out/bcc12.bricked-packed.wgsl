@@ -1008,7 +1008,8 @@ fn bcc12_eval_hessian(p: vec3<f32>) -> bcc12_Hessian {
     let hs_389 = c_187 + c_379;
     let hs_390 = c_186 + c_378;
     let hs_391 = c_184 + c_376;
-    return bcc12_Hessian(val_384, gx_385, mat3x3<f32>(vec3<f32>(hs_386, hs_387, hs_388), vec3<f32>(hs_387, hs_389, hs_390), vec3<f32>(hs_388, hs_390, hs_391)));
+    let hx_392 = mat3x3<f32>(vec3<f32>(hs_386, hs_387, hs_388), vec3<f32>(hs_387, hs_389, hs_390), vec3<f32>(hs_388, hs_390, hs_391));
+    return bcc12_Hessian(val_384, gx_385, hx_392);
 }
 // Kernels. Bindings for the outputs follow the sample bindings.
 @group(0) @binding(3) var<storage, read_write> bcc12_out: array<f32>;

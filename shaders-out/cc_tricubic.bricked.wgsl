@@ -915,7 +915,8 @@ fn cc_tricubic_eval_hessian(p: vec3<f32>) -> cc_tricubic_Hessian {
     let c_188 = wt_32 * c_175 + wt_34 * c_176 + wt_37 * c_177 + wt_40 * c_178;
     let val_189 = c_179;
     let gx_190 = vec3<f32>(c_185, c_182, c_180);
-    return cc_tricubic_Hessian(val_189, gx_190, mat3x3<f32>(vec3<f32>(c_188, c_187, c_186), vec3<f32>(c_187, c_184, c_183), vec3<f32>(c_186, c_183, c_181)));
+    let hx_191 = mat3x3<f32>(vec3<f32>(c_188, c_187, c_186), vec3<f32>(c_187, c_184, c_183), vec3<f32>(c_186, c_183, c_181));
+    return cc_tricubic_Hessian(val_189, gx_190, hx_191);
 }
 // Kernels. Bindings for the outputs follow the sample bindings.
 @group(0) @binding(3) var<storage, read_write> cc_tricubic_out: array<f32>;

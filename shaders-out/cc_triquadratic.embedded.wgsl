@@ -601,7 +601,8 @@ fn cc_triquadratic_eval_hessian(p: vec3<f32>) -> cc_triquadratic_Hessian {
     let c_103 = wt_17 * c_91 + wt_18 * c_92 + wt_20 * c_93;
     let val_104 = c_94;
     let gx_105 = vec3<f32>(c_100, c_97, c_95);
-    return cc_triquadratic_Hessian(val_104, gx_105, mat3x3<f32>(vec3<f32>(c_103, c_102, c_101), vec3<f32>(c_102, c_99, c_98), vec3<f32>(c_101, c_98, c_96)));
+    let hx_106 = mat3x3<f32>(vec3<f32>(c_103, c_102, c_101), vec3<f32>(c_102, c_99, c_98), vec3<f32>(c_101, c_98, c_96));
+    return cc_triquadratic_Hessian(val_104, gx_105, hx_106);
 }
 // Kernels. Bindings for the outputs follow the sample bindings.
 @group(0) @binding(1) var<storage, read_write> cc_triquadratic_out: array<f32>;

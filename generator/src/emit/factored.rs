@@ -229,7 +229,8 @@ pub(crate) fn emit_factored_body(fac: &Factorisation, sh: &Shapes, name: &str, o
     }
     let cols: Vec<String> =
         (0..s).map(|j| sh.fvec(&(0..s).map(|i| upper[i.min(j) * s + i.max(j)].clone()).collect::<Vec<_>>())).collect();
-    body.line(&format!("return {name}_Hessian({value}, {g}, mat{s}x{s}<f32>({}));", cols.join(", ")));
+    let hx = body.bind("hx", &format!("mat{s}x{s}<f32>({})", cols.join(", ")));
+    body.line(&format!("return {name}_Hessian({value}, {g}, {hx});"));
     body.text
 }
 

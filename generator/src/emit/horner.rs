@@ -85,7 +85,7 @@ fn horner_rec(body: &mut Body, coeffs: &BTreeMap<Vec<u32>, String>, vars: &[Stri
                 next.d[j] = mul_add(body, &acc.d[j], x, &[add]);
             }
         }
-        next.v = mul_add(body, &acc.v, x, &[p.v.clone()]);
+        next.v = mul_add(body, &acc.v, x, std::slice::from_ref(&p.v));
         acc = next;
     }
     acc

@@ -14,6 +14,7 @@
 pub mod derive;
 pub mod dvr;
 pub mod glsl_rivals;
+pub mod hessian;
 pub mod hit;
 pub mod literature;
 pub mod perm;

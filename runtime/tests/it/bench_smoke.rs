@@ -75,3 +75,25 @@ fn perm_bench_measures_every_filter_and_n() {
     let md = perm::markdown(&r, "test");
     assert!(md.contains("## PERM (Lim and Shin)") && md.contains("| bcc12 | marschner-lobb | 10 | 10 | no |"), "{md}");
 }
+
+/// `bench --hessian` end to end at a small size: cc_tricubic's
+/// eval_hessian against central differences and the hand-written separable
+/// tricubic Hessian, which must compute the same Hessian (the separable one
+/// to f32 rounding: an independent check of the generated factored form).
+#[test]
+fn hessian_bench_times_both_rivals_after_they_agree() {
+    use boxforge_runtime::bench::hessian;
+    let gpu = crate::common::gpu();
+    let r = hessian::run(gpu, &["cc_tricubic".to_string(), "bcc_linear".to_string()], 2048, 1, &|_| {}).unwrap();
+    // bcc_linear (degree 1) has no eval_hessian: no rows for it.
+    assert_eq!(r.rows.len(), 2, "{r:?}");
+    for row in &r.rows {
+        assert_eq!(row.filter, "cc_tricubic");
+        assert!(row.agrees, "{row:?}");
+        assert!(row.generated_evals_per_s > 0.0 && row.rival_evals_per_s > 0.0, "{row:?}");
+    }
+    let separable = r.rows.iter().find(|x| x.rival == "separable tricubic").unwrap();
+    assert!(separable.max_rel_diff < 1e-5, "{separable:?}");
+    let md = hessian::markdown(&r, "test");
+    assert!(md.contains(hessian::SECTION_START) && md.contains("separable tricubic"));
+}

@@ -1,6 +1,6 @@
 //! Device verification on lavapipe (or any Vulkan device): every 3D catalog
-//! filter, every layout, fast variant; eval and eval_grad against the exact
-//! evaluator. Sizes are small enough for CI.
+//! filter, every layout, fast variant; eval, eval_grad and (degree >= 2)
+//! eval_hessian against the exact evaluator. Sizes are small enough for CI.
 
 use boxforge::derive::Derivation;
 use boxforge::emit::{Layout, Variant};
@@ -24,7 +24,12 @@ fn every_3d_catalog_filter_matches_the_exact_evaluator_on_the_device() {
         // with as many points again on the brick faces.
         for layout in [Layout::Embedded, Layout::Packed, Layout::Bricked, Layout::BrickedPacked] {
             let r = verify(gpu, &d, layout, Variant::Fast, 3000, 7).unwrap();
-            eprintln!("{name} {layout:?}: value {:.2e} grad {:.2e}", r.max_abs_err, r.max_rel_grad_err);
+            eprintln!(
+                "{name} {layout:?}: value {:.2e} grad {:.2e} hessian {:?}",
+                r.max_abs_err, r.max_rel_grad_err, r.max_rel_hessian_err
+            );
+            // Second order is checked wherever the module has it.
+            assert_eq!(r.max_rel_hessian_err.is_some(), d.facts.degree >= 2, "{name} {layout:?}");
             if !r.passed {
                 failures.push(format!("{name} {layout:?}: {r:?}"));
             }

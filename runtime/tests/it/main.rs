@@ -12,6 +12,7 @@ mod dvr;
 mod frames;
 mod gpu_bench;
 mod gpu_verify;
+mod hessian;
 mod hit;
 mod host_depth;
 mod mattausch_references;

@@ -85,7 +85,9 @@ fn a_user_tensor_cubic_over_bcc_is_factored_and_small() {
     let d = boxforge::derive::Derivation::new(&f).unwrap();
     let e = emit(&d, &EmitOptions::default()).unwrap();
     assert_eq!(e.stats.form, boxforge::emit::EvalForm::Factored);
-    assert!(e.source.len() < 40_000, "{} bytes", e.source.len());
+    // (The limit was 40 KB before eval_hessian, whose second-derivative
+    // contractions over both cosets add 27 KB.)
+    assert!(e.source.len() < 80_000, "{} bytes", e.source.len());
     let r = validate_wgsl(&e.source, &e.file_name);
     assert!(r.valid, "{}", r.error.unwrap_or_default());
     check_branch_free(&r, &["tensor_cubic_bcc_eval", "tensor_cubic_bcc_eval_grad"]).unwrap();

@@ -38,6 +38,12 @@ pub struct BenchArgs {
     /// section of the file.
     #[arg(long, conflicts_with_all = ["derive", "literature", "perm"])]
     volumes: bool,
+    /// Measure second derivatives instead: the generated eval_hessian of
+    /// every filter of degree >= 2 against central differences of its
+    /// analytic gradient, and cc_tricubic's against the separable tricubic
+    /// Hessian: with --markdown, replaces only its section of the file.
+    #[arg(long, conflicts_with_all = ["derive", "literature", "perm", "volumes"])]
+    hessian: bool,
     /// Edge of the generated out-of-core volume (default 1024; 64 with --smoke).
     #[arg(long, requires = "volumes")]
     large_edge: Option<usize>,
@@ -92,6 +98,8 @@ pub fn run(a: BenchArgs) -> Result<(), Failure> {
         perm(&a)
     } else if a.volumes {
         volumes(&a)
+    } else if a.hessian {
+        hessian(&a)
     } else if a.references_only {
         references_only(&a)
     } else {
@@ -207,6 +215,30 @@ fn perm(a: &BenchArgs) -> Result<(), Failure> {
     let report = report?;
     let text = bench::perm::markdown(&report, section.command());
     section.finish(&report, &text, bench::perm::splice, a.json)
+}
+
+/// `--hessian`: eval_hessian against central differences and the separable tricubic Hessian.
+fn hessian(a: &BenchArgs) -> Result<(), Failure> {
+    let filters: Vec<String> = if !a.filters.is_empty() {
+        a.filters.clone()
+    } else if a.smoke {
+        vec!["cc_tricubic".into()]
+    } else {
+        ["cc_triquadratic", "cc_tricubic", "bcc7", "bcc8", "bcc12", "fcc6"].map(String::from).to_vec()
+    };
+    let (points, rounds) = if a.smoke { (4096, 1) } else { (1 << 18, a.runs.unwrap_or(7)) };
+    let mut flags = format!("--hessian{}", smoke_runs(a, true));
+    if !a.filters.is_empty() {
+        flags.push_str(&format!(" --filters {}", a.filters.join(",")));
+    }
+    let section = Section::new("second-derivatives", &flags, a.markdown.as_deref())?;
+    let gpu = open_gpu(a.adapter.as_deref())?;
+    let steps = progress::Steps::new();
+    let report = bench::hessian::run(&gpu, &filters, points, rounds, &|m: &str| steps.step(m));
+    steps.finish();
+    let report = report.map_err(|e| Failure(e.to_string()))?;
+    let text = bench::hessian::markdown(&report, section.command());
+    section.finish(&report, &text, bench::hessian::splice, a.json)
 }
 
 /// `--volumes`: bricks, compact formats and out-of-core frames.
@@ -372,6 +404,7 @@ fn main_report(a: BenchArgs) -> Result<(), Failure> {
                 bench::literature::existing_section(&old),
                 bench::perm::existing_section(&old),
                 bench::volumes::existing_section(&old),
+                bench::hessian::existing_section(&old),
             ];
             for section in kept.into_iter().flatten() {
                 text = format!("{}\n\n{section}\n", text.trim_end());

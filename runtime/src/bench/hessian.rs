@@ -1,0 +1,298 @@
+//! Second derivatives (`boxforge bench --hessian`): the generated
+//! `<f>_eval_hessian` against the rivals a practitioner would write, timed in
+//! interleaved rounds after checking that they agree: central differences of
+//! the analytic gradient (`eval_grad` at p and at p +- h e_i, seven calls)
+//! for every filter of degree >= 2, and for cc_tricubic the separable
+//! tricubic Hessian (per-axis B-spline weights and their first and second
+//! derivatives, contracted axis by axis, as Sigg & Hadwiger's GPU Gems 2
+//! chapter 20 builds its derivative filters), hand-written here.
+
+use super::job::{program, timed_rounds, Job};
+use super::quality::points_in;
+use super::stats::{median, Ratio};
+use super::BenchError;
+use crate::gpu::Gpu;
+use crate::volume::{DeviceVolume, LatticeVolume};
+use boxforge::emit::{emit, EmitOptions, Layout};
+use serde::Serialize;
+use std::fmt::Write as _;
+
+/// Marks the section in BENCHMARKS.md.
+pub const SECTION_START: &str = "<!-- hessian-bench:start -->";
+/// Marks the end of the section.
+pub const SECTION_END: &str = "<!-- hessian-bench:end -->";
+
+/// The most a rival may differ (max |difference| / max(|value|, 1) over
+/// the packed entries) and still count as computing the same Hessian: the
+/// separable tricubic is exact (f32 rounding only); central differences
+/// carry their truncation error and f32 cancellation.
+pub fn agreement_tolerance(rival: &str) -> f64 {
+    if rival == "central differences" {
+        1e-2
+    } else {
+        1e-4
+    }
+}
+
+/// Step of the central differences, in lattice units (1e-2 cell, as the
+/// gradient bench's central differences of `eval`).
+pub const CENTRAL_STEP: f32 = 0.01;
+
+/// Every entry of value, gradient and Hessian in one vec4 with distinct
+/// weights (so a wrong entry changes the output and nothing is dead code).
+fn packed(value: &str, gradient: &str, hessian: &str) -> String {
+    format!(
+        "vec4<f32>({hessian}[0] + 0.5 * {hessian}[1] + 0.25 * {hessian}[2], {value} + dot({gradient}, vec3<f32>(1.0, 0.5, 0.25)))"
+    )
+}
+
+/// `bx_generated(p)`: the generated `eval_hessian`, packed.
+fn generated(name: &str) -> String {
+    format!(
+        "fn bx_generated(p: vec3<f32>) -> vec4<f32> {{\n    let r = {name}_eval_hessian(p);\n    return {};\n}}\n",
+        packed("r.value", "r.gradient", "r.hessian")
+    )
+}
+
+/// `bx_central(p)`: value and gradient from `eval_grad(p)`, the Hessian's
+/// columns from central differences of six more `eval_grad` calls.
+fn central(name: &str) -> String {
+    let h = CENTRAL_STEP;
+    let inv = 0.5 / h;
+    format!(
+        "fn bx_central(p: vec3<f32>) -> vec4<f32> {{
+    let g = {name}_eval_grad(p);
+    let c0 = ({name}_eval_grad(p + vec3<f32>({h:?}, 0.0, 0.0)).yzw - {name}_eval_grad(p - vec3<f32>({h:?}, 0.0, 0.0)).yzw) * {inv:?};
+    let c1 = ({name}_eval_grad(p + vec3<f32>(0.0, {h:?}, 0.0)).yzw - {name}_eval_grad(p - vec3<f32>(0.0, {h:?}, 0.0)).yzw) * {inv:?};
+    let c2 = ({name}_eval_grad(p + vec3<f32>(0.0, 0.0, {h:?})).yzw - {name}_eval_grad(p - vec3<f32>(0.0, 0.0, {h:?})).yzw) * {inv:?};
+    let hm = mat3x3<f32>(c0, c1, c2);
+    return {};
+}}
+",
+        packed("g.x", "g.yzw", "hm")
+    )
+}
+
+/// The separable tricubic Hessian, hand-written: cubic B-spline weights of
+/// the four samples per axis and their first and second derivatives, the
+/// 64 fetches contracted along x, then y, then z (value, 3 first and 6
+/// second derivatives carried), read through the generated module's
+/// `cc_tricubic_fetch`.
+pub const SEPARABLE_TRICUBIC: &str = r#"
+fn sep_w(t: f32) -> vec4<f32> {
+    let s = 1.0 - t;
+    let t2 = t * t;
+    let t3 = t2 * t;
+    return vec4<f32>(s * s * s, 3.0 * t3 - 6.0 * t2 + 4.0, -3.0 * t3 + 3.0 * t2 + 3.0 * t + 1.0, t3) * (1.0 / 6.0);
+}
+fn sep_dw(t: f32) -> vec4<f32> {
+    let s = 1.0 - t;
+    return vec4<f32>(-0.5 * s * s, 1.5 * t * t - 2.0 * t, -1.5 * t * t + t + 0.5, 0.5 * t * t);
+}
+fn sep_hw(t: f32) -> vec4<f32> {
+    return vec4<f32>(1.0 - t, 3.0 * t - 2.0, 1.0 - 3.0 * t, t);
+}
+fn bx_separable(p: vec3<f32>) -> vec4<f32> {
+    let fl = floor(p);
+    let t = p - fl;
+    let base = vec3<i32>(fl) - vec3<i32>(1);
+    let wx = sep_w(t.x);
+    let dx = sep_dw(t.x);
+    let hx = sep_hw(t.x);
+    let wy = sep_w(t.y);
+    let dy = sep_dw(t.y);
+    let hy = sep_hw(t.y);
+    let wz = sep_w(t.z);
+    let dz = sep_dw(t.z);
+    let hz = sep_hw(t.z);
+    var v = 0.0;
+    var g = vec3<f32>(0.0);
+    var hd = vec3<f32>(0.0);
+    var ho = vec3<f32>(0.0);
+    for (var k = 0; k < 4; k++) {
+        // Along y for this z: value, d/dx, d2/dx2, d/dy, d2/dxdy, d2/dy2.
+        var sy = vec3<f32>(0.0);
+        var sdy = vec2<f32>(0.0);
+        var shy = 0.0;
+        for (var j = 0; j < 4; j++) {
+            let r = base + vec3<i32>(0, j, k);
+            let f = vec4<f32>(
+                cc_tricubic_fetch(r),
+                cc_tricubic_fetch(r + vec3<i32>(1, 0, 0)),
+                cc_tricubic_fetch(r + vec3<i32>(2, 0, 0)),
+                cc_tricubic_fetch(r + vec3<i32>(3, 0, 0)),
+            );
+            let sx = vec3<f32>(dot(f, wx), dot(f, dx), dot(f, hx));
+            sy += wy[j] * sx;
+            sdy += dy[j] * sx.xy;
+            shy += hy[j] * sx.x;
+        }
+        // Along z.
+        v += wz[k] * sy.x;
+        g += vec3<f32>(wz[k] * sy.y, wz[k] * sdy.x, dz[k] * sy.x);
+        hd += vec3<f32>(wz[k] * sy.z, wz[k] * shy, hz[k] * sy.x);
+        ho += vec3<f32>(wz[k] * sdy.y, dz[k] * sy.y, dz[k] * sdy.x);
+    }
+    // ho: (xy, xz, yz).
+    let hm = mat3x3<f32>(vec3<f32>(hd.x, ho.x, ho.y), vec3<f32>(ho.x, hd.y, ho.z), vec3<f32>(ho.y, ho.z, hd.z));
+    return vec4<f32>(hm[0] + 0.5 * hm[1] + 0.25 * hm[2], v + dot(g, vec3<f32>(1.0, 0.5, 0.25)));
+}
+"#;
+
+/// Is `p` farther than `dist` (Euclidean, lattice units) from every knot plane?
+fn far_from_knot_planes(d: &boxforge::derive::Derivation, p: &[f32; 4], dist: f32) -> bool {
+    let x = [p[0] as f64, p[1] as f64, p[2] as f64];
+    crate::verify::nearest_knot_planes(d, &x).iter().all(|(n, _, gap, _)| {
+        let norm = n.iter().map(|a| (a * a) as f64).sum::<f64>().sqrt();
+        gap / norm > dist as f64
+    })
+}
+
+/// One rival against the generated `eval_hessian`.
+#[derive(Clone, Debug, Serialize)]
+pub struct HessianRow {
+    pub filter: String,
+    /// `central differences` or `separable tricubic`.
+    pub rival: String,
+    pub generated_evals_per_s: f64,
+    pub rival_evals_per_s: f64,
+    /// Generated rate / rival rate per round (> 1: the generated is faster).
+    pub speedup: Ratio,
+    /// max over points and packed entries of |generated - rival| / max(|generated|, 1).
+    pub max_rel_diff: f64,
+    /// Points where the outputs were compared (all, or for a C^1 filter's
+    /// central differences those farther than 2h from every knot plane).
+    pub compared_points: usize,
+    /// Whether `max_rel_diff` is within [`agreement_tolerance`].
+    pub agrees: bool,
+    pub fetches_generated: usize,
+    pub ops_generated: usize,
+    pub hessian_form: String,
+}
+
+/// What `bench --hessian` measured.
+#[derive(Clone, Debug, Serialize)]
+pub struct HessianReport {
+    pub adapter: String,
+    pub points: usize,
+    pub rounds: usize,
+    pub rows: Vec<HessianRow>,
+}
+
+/// Times every filter's `eval_hessian` against its rivals on Marschner-Lobb
+/// (41^3 samples' worth on each lattice), `points` points, `rounds` rounds.
+pub fn run(
+    gpu: &Gpu,
+    filters: &[String],
+    points: usize,
+    rounds: usize,
+    progress: &dyn Fn(&str),
+) -> Result<HessianReport, BenchError> {
+    let mut rows = Vec::new();
+    for name in filters {
+        let d = super::options::derive_filter(name)?;
+        if d.facts.dim != 3 || d.facts.degree < 2 {
+            continue;
+        }
+        let e3 = crate::scene::matched_edge(&d.filter.lattice, 41f64.powi(3));
+        let ml = LatticeVolume::marschner_lobb(&d.filter.lattice, [e3, e3, e3])?;
+        let dv = DeviceVolume::new(gpu, &ml, Layout::Embedded)?;
+        let pts = points_in(&d, &ml, points, 9);
+        let m = emit(&d, &EmitOptions { kernels: false, ..Default::default() }).map_err(BenchError::emit)?;
+        let mut rivals = vec![("central differences", central(name), "bx_central(p)")];
+        if name == "cc_tricubic" {
+            rivals.push(("separable tricubic", SEPARABLE_TRICUBIC.to_string(), "bx_separable(p)"));
+        }
+        for (rival, code, call) in rivals {
+            progress(&format!("{name}: eval_hessian vs {rival}, {rounds} rounds"));
+            let a = Job::new(gpu, &program(&m.source, &generated(name), "bx_generated(p)"), "hessian", &dv, &pts)?;
+            let b = Job::new(gpu, &program(&m.source, &code, call), rival, &dv, &pts)?;
+            let r = timed_rounds(gpu, &[&a, &b], rounds)?;
+            // The outputs of the last round (each job writes every point each run).
+            let (ao, bo) = (a.outputs(gpu)?, b.outputs(gpu)?);
+            // Where the Hessian jumps (C^1 filters), central differences
+            // straddling a knot plane blend both sides: compare them only
+            // farther than 2h from every knot plane.
+            let jumps = d.facts.continuity < 2 && rival == "central differences";
+            let compared: Vec<usize> =
+                (0..pts.len()).filter(|&k| !jumps || far_from_knot_planes(&d, &pts[k], 2.0 * CENTRAL_STEP)).collect();
+            let max_rel_diff = compared
+                .iter()
+                .flat_map(|&k| {
+                    let (x, y) = (ao[k], bo[k]);
+                    (0..4).map(move |i| (x[i] as f64 - y[i] as f64).abs() / (x[i] as f64).abs().max(1.0))
+                })
+                .fold(0f64, f64::max);
+            rows.push(HessianRow {
+                filter: name.clone(),
+                rival: rival.into(),
+                generated_evals_per_s: median(&r[0]),
+                rival_evals_per_s: median(&r[1]),
+                speedup: Ratio::of_rates(&r[0], &r[1]),
+                max_rel_diff,
+                compared_points: compared.len(),
+                agrees: max_rel_diff <= agreement_tolerance(rival),
+                fetches_generated: m.stats.fetches_per_eval,
+                ops_generated: m.stats.ops_eval_hessian.unwrap_or(0),
+                hessian_form: m.stats.hessian_form.map_or("-", |f| f.name()).into(),
+            });
+        }
+    }
+    Ok(HessianReport { adapter: gpu.describe(), points, rounds, rows })
+}
+
+/// The section as Markdown, with each target and whether it holds.
+pub fn markdown(r: &HessianReport, command: &str) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "{SECTION_START}\n## Second derivatives: eval_hessian against its rivals\n");
+    let _ = writeln!(s, "Generated by `{command}` on {}.\n", r.adapter);
+    let _ = writeln!(
+        s,
+        "Marschner-Lobb at about 41^3 samples on each lattice, {} points in the valid box, median of {} interleaved rounds (ratio per round, min..max over rounds). Each kernel writes value, gradient and every Hessian entry folded into one vec4 with distinct weights; before timing, the rival's output is compared with the generated one (max |difference| / max(|value|, 1); central differences with h = {CENTRAL_STEP} differ by their truncation and f32 cancellation, about eps/h^2 of the data; for C^1 filters, whose Hessian jumps across knot planes, they are compared only at the points farther than 2h from every knot plane, since a difference straddling a plane blends both sides). Targets: >= 3x central differences for every filter of degree >= 2; cc_tricubic >= 1.0x the separable tricubic Hessian.\n",
+        r.points, r.rounds
+    );
+    let _ = writeln!(s, "| filter | eval_hessian form (fetches, ops) | rival | generated evals/s | rival evals/s | speed-up median [min..max] | target | max rel. difference (agrees?, points compared) |");
+    let _ = writeln!(s, "|---|---|---|---:|---:|---|---|---|");
+    for row in &r.rows {
+        let want = if row.rival == "central differences" { 3.0 } else { 1.0 };
+        let verdict = if row.speedup.median >= want {
+            format!(">= {want}x: met")
+        } else {
+            format!(">= {want}x: missed by {:.2}x", want / row.speedup.median)
+        };
+        let _ = writeln!(
+            s,
+            "| {} | {} ({}, {}) | {} | {:.3e} | {:.3e} | {:.2}x [{:.2}..{:.2}] | {verdict} | {:.1e} ({}, tolerance {:.0e}, {} points) |",
+            row.filter,
+            row.hessian_form,
+            row.fetches_generated,
+            row.ops_generated,
+            row.rival,
+            row.generated_evals_per_s,
+            row.rival_evals_per_s,
+            row.speedup.median,
+            row.speedup.min,
+            row.speedup.max,
+            row.max_rel_diff,
+            if row.agrees { "yes" } else { "NO" },
+            agreement_tolerance(&row.rival),
+            row.compared_points
+        );
+    }
+    let _ = writeln!(
+        s,
+        "\nNot measured yet: Kim 2021's hand-written bcc7 Hessian (target: generated >= 1.0x) and the six-direction cubic box spline on CC of Kim & Kim 2023 (not in the catalog yet).\n"
+    );
+    let _ = writeln!(s, "{SECTION_END}");
+    s
+}
+
+/// `file` with this section replaced (or appended).
+pub fn splice(file: &str, section: &str) -> String {
+    super::derive::splice_between(file, section, SECTION_START, SECTION_END)
+}
+
+/// This section of `file`, if it has one.
+pub fn existing_section(file: &str) -> Option<&str> {
+    super::derive::section_between(file, SECTION_START, SECTION_END)
+}
