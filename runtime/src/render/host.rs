@@ -108,8 +108,8 @@ mod tests {
         let host = [(1, 6, "uniform buffer".to_string()), (1, 7, "texture_depth_2d".to_string())];
         for hit in [HitMode::Step, HitMode::Exact] {
             let opts = boxforge::emit::EmitOptions { command: "t".into(), ..Default::default() };
-            let plain = raycast_shader_with(&d, &opts, hit, (1, [1, 1, 1]), false).unwrap();
-            let native = raycast_shader_with(&d, &opts, hit, (1, [1, 1, 1]), true).unwrap();
+            let plain = raycast_shader_with(&d, &opts, hit, (1, [1, 1, 1]), false, &Default::default()).unwrap();
+            let native = raycast_shader_with(&d, &opts, hit, (1, [1, 1, 1]), true, &Default::default()).unwrap();
             let (p, n) = (table(&plain), table(&native));
             assert!(host.iter().all(|h| n.contains(h) && !p.contains(h)), "{hit:?}: {n:?}");
             assert_eq!(n.len(), p.len() + 2);

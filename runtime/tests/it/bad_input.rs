@@ -139,6 +139,13 @@ fn cases(dir: &Path) -> Vec<(Vec<String>, &'static str)> {
         (volume(p("small.raw"), &["--raw", "10,10,1,f64"]), "f64"),
         (volume(p("nan.raw"), &["--raw", "2,2,2,f32"]), "NaN"),
         (volume(p("small.raw"), &["--raw", "0,10,10,u8"]), "0"),
+        // render --shade: curvature needs a Hessian and the ray caster
+        (render(&["--shade", "wobbly"]), "wobbly"),
+        (render(&["--shade", "mean", "--mode", "dvr", "--tf", "marschner-lobb"]), "--mode dvr"),
+        (render(&["--shade", "curvature", "--curvature-radius", "0"]), "radius"),
+        (render(&["--shade", "contours", "--contour-thickness", "-1"]), "thickness"),
+        (render(&["--shade", "ridges", "--gpu-budget", "64MiB"]), "--gpu-budget"),
+        (args(&["render", "--filter", "bcc_linear", "--volume", "ml:8", "--shade", "mean", "--out", &out]), "degree 1"),
         // render: filters, lattices, outputs
         (args(&["render", "--filter", "courant", "--volume", "ml:8", "--out", &out]), "2D"),
         (args(&["render", "--filter", "bcc7", "--volume", "ml:8", "--lattice", "fcc", "--out", &out]), "lattice"),

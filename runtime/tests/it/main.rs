@@ -8,6 +8,7 @@ mod bench_smoke;
 mod bricks;
 mod cli;
 mod common;
+mod curvature;
 mod dvr;
 mod frames;
 mod gpu_bench;

@@ -19,6 +19,11 @@ pub fn cpu_render_with_depth(d: &Derivation, vol: &LatticeVolume, o: &RenderOpti
     let plan = HitPlan::new(d);
     let data = |j: &[i64]| vol.get(j) as f64;
     let f = |x: DVec3| d.eval_f64(&x.to_array(), &data);
+    // Curvature shading: gradient and Hessian at the hit.
+    let second = |x: DVec3| {
+        let (_, g, h) = d.eval_f64_hessian(&x.to_array(), &data);
+        (DVec3::from_slice(&g), glam::DMat3::from_cols_slice(&h))
+    };
     let (w, h) = (o.width as usize, o.height as usize);
     let rows: Vec<usize> = (0..h).collect();
     let threads = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
@@ -29,7 +34,7 @@ pub fn cpu_render_with_depth(d: &Derivation, vol: &LatticeVolume, o: &RenderOpti
         let handles: Vec<_> = chunks
             .iter()
             .map(|rows| {
-                let (f, plan) = (&f, &plan);
+                let (f, plan, second) = (&f, &plan, &second);
                 s.spawn(move || {
                     let mut part = Vec::new();
                     for &y in rows {
@@ -44,7 +49,7 @@ pub fn cpu_render_with_depth(d: &Derivation, vol: &LatticeVolume, o: &RenderOpti
                             } else {
                                 (eye + sx * rt + sy * up, fw)
                             };
-                            let (c, t) = cast_ray(f, plan, origin, dir, &p, o);
+                            let (c, t) = cast_ray(f, second, plan, origin, dir, &p, o);
                             part.push((y, x, c, t));
                         }
                     }
@@ -203,6 +208,7 @@ pub fn hit_exact(
 
 fn cast_ray(
     f: &dyn Fn(DVec3) -> (f64, Vec<f64>),
+    second: &dyn Fn(DVec3) -> (DVec3, glam::DMat3),
     plan: &HitPlan,
     origin: DVec3,
     dir: DVec3,
@@ -224,7 +230,11 @@ fn cast_ray(
             HitMode::Step => hit_step(f, origin, dir, t0, t1, o),
             HitMode::Exact => hit_exact(f, plan, origin, dir, t0, t1, o.iso as f64),
         };
-        if let Some(th) = hit {
+        if let (Some(th), true) = (hit, o.shade.mode.needs_hessian()) {
+            // The Hessian is symmetric, so its row-major entries read as columns are the same matrix.
+            let (g, h) = second(at(th));
+            color = o.shade.color(g, h, dir, d3(p.camera.up));
+        } else if let Some(th) = hit {
             // Normalised by dividing by the length (not glam's normalize,
             // which multiplies by the reciprocal) to keep the rounding.
             let g = DVec3::from_slice(&f(at(th)).1);

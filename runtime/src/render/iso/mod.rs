@@ -3,6 +3,7 @@
 //! emitted min/max kernel, and a CPU reference ray caster for tests.
 
 pub mod cpu;
+pub mod curvature;
 pub mod hit;
 pub mod renderer;
 pub(crate) mod template;
@@ -14,6 +15,7 @@ use crate::volume::LatticeVolume;
 use boxforge::derive::Derivation;
 use boxforge::emit::{emit, EmitOptions, Layout};
 pub use cpu::{cpu_render, cpu_render_with_depth, hit_exact};
+pub use curvature::{Shade, ShadeMode};
 use glam::{DVec3, Vec3};
 pub use hit::*;
 
@@ -42,6 +44,8 @@ pub struct RenderOptions {
     pub hit: HitMode,
     /// How the one-shot renders store the samples (format, bricks).
     pub volume: crate::volume::VolumeOptions,
+    /// How hits are coloured: Phong, or curvature from `<f>_eval_hessian`.
+    pub shade: Shade,
 }
 
 /// How the ray caster finds the first iso-surface crossing along a ray.
@@ -95,6 +99,7 @@ impl Default for RenderOptions {
             progress: false,
             hit: HitMode::default(),
             volume: Default::default(),
+            shade: Shade::default(),
         }
     }
 }
@@ -205,22 +210,47 @@ pub fn raycast_shader(
     command: &str,
 ) -> Result<String, GpuError> {
     let opts = EmitOptions { layout, command: command.into(), ..Default::default() };
-    raycast_shader_with(d, &opts, hit, fine, false)
+    raycast_shader_with(d, &opts, hit, fine, false, &Shade::default())
 }
 
 /// [`raycast_shader`], with `host_depth` the host-depth input of
-/// [`renderer::IsoRenderer`] (group 1, bindings 6 and 7).
+/// [`renderer::IsoRenderer`] (group 1, bindings 6 and 7) and the shading.
 pub(crate) fn raycast_shader_with(
     d: &Derivation,
     module: &EmitOptions,
     hit: HitMode,
     fine: (i32, [i32; 3]),
     host_depth: bool,
+    shade: &Shade,
 ) -> Result<String, GpuError> {
+    check_shade(d, shade)?;
     let module = emit(d, module).map_err(|e| GpuError::Runtime(e.to_string()))?;
     let plan = HitPlan::new(d);
     let exact = (hit == HitMode::Exact).then_some((&plan, fine.0, fine.1));
-    Ok(format!("{}\n{}", module.source, template::template(&d.filter.name, exact, host_depth)))
+    let curvature = shade.mode.needs_hessian();
+    let shading = if curvature { shade.wgsl(&d.filter.name) } else { String::new() };
+    Ok(format!("{}\n{}{shading}", module.source, template::template(&d.filter.name, exact, host_depth, curvature)))
+}
+
+/// Curvature shading needs `<f>_eval_hessian` (degree >= 2) and positive
+/// radius and thickness.
+pub fn check_shade(d: &Derivation, shade: &Shade) -> Result<(), GpuError> {
+    if shade.mode.needs_hessian() && d.facts.degree < 2 {
+        return Err(GpuError::Runtime(format!(
+            "--shade {} needs second derivatives, but {} has degree {} (its pieces are linear, its Hessian zero); \
+             use a filter of degree >= 2 such as bcc7 or cc_tricubic",
+            shade.mode.name(),
+            d.filter.name,
+            d.facts.degree
+        )));
+    }
+    if !(shade.radius.is_finite() && shade.radius > 0.0 && shade.thickness.is_finite() && shade.thickness > 0.0) {
+        return Err(GpuError::Runtime(format!(
+            "curvature radius {} and contour thickness {} must be finite and > 0",
+            shade.radius, shade.thickness
+        )));
+    }
+    Ok(())
 }
 
 /// The fine grid of the exact walk for a volume of `dims` and coarse blocks
@@ -266,6 +296,7 @@ pub fn render_with_depth(
         skip: o.skip,
         skip_map: o.skip_map,
         hit: o.hit,
+        shade: o.shade,
     };
     let mut iso = renderer::IsoRenderer::new(gpu, d, &dv, options).map_err(as_gpu)?;
     iso.timed_frames(o).map_err(as_gpu)

@@ -36,12 +36,22 @@ pub struct IsoOptions {
     pub skip_map: SkipMap,
     /// Fixed steps or exact first hits.
     pub hit: HitMode,
+    /// Phong, or curvature shading from `<f>_eval_hessian`.
+    pub shade: super::Shade,
 }
 
 impl Default for IsoOptions {
     fn default() -> Self {
         let o = RenderOptions::default();
-        IsoOptions { iso: o.iso, step: o.step, block: o.block, skip: o.skip, skip_map: o.skip_map, hit: o.hit }
+        IsoOptions {
+            iso: o.iso,
+            step: o.step,
+            block: o.block,
+            skip: o.skip,
+            skip_map: o.skip_map,
+            hit: o.hit,
+            shade: o.shade,
+        }
     }
 }
 
@@ -85,7 +95,7 @@ impl IsoRenderer {
         let fine = fine_grid(volume.dims, options.block);
         volume.check_filter(d)?;
         let module = volume.emit_options("boxforge_runtime::render::iso::IsoRenderer");
-        let source = raycast_shader_with(d, &module, options.hit, fine, true)?;
+        let source = raycast_shader_with(d, &module, options.hit, fine, true, &options.shade)?;
         let shader = gpu.compile(&format!("{name}.raycast.wgsl"), &source)?;
         let bounds = block_bounds(gpu, &shader, &name, volume, volume.dims, options.block)?;
         let empty: Vec<u32> = bounds.iter().map(|b| (options.iso < b[0] || options.iso > b[1]) as u32).collect();

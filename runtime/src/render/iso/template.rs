@@ -161,7 +161,12 @@ fn hit_context(plan: &HitPlan, name: &str) -> minijinja::Value {
 /// with `host_depth` the host-depth input of the native per-frame renderer
 /// (bindings 6 and 7; without it the text is the one the web viewer and
 /// reports have always had).
-pub(crate) fn template(name: &str, exact: Option<(&HitPlan, i32, [i32; 3])>, host_depth: bool) -> String {
+pub(crate) fn template(
+    name: &str,
+    exact: Option<(&HitPlan, i32, [i32; 3])>,
+    host_depth: bool,
+    curvature: bool,
+) -> String {
     let env = {
         let mut env = minijinja::Environment::new();
         env.add_template("raycast", include_str!("../../../../templates/raycast.wgsl.j2")).expect("template");
@@ -177,8 +182,9 @@ pub(crate) fn template(name: &str, exact: Option<(&HitPlan, i32, [i32; 3])>, hos
             fine_blocks_z => blocks[2],
             hit => hit_context(plan, name),
             host_depth => host_depth,
+            curvature => curvature,
         },
-        None => minijinja::context! { name => name, exact => false, host_depth => host_depth },
+        None => minijinja::context! { name => name, exact => false, host_depth => host_depth, curvature => curvature },
     };
     env.get_template("raycast").unwrap().render(ctx).expect("render")
 }

@@ -12,7 +12,7 @@ use boxforge::emit::Layout;
 use boxforge::spec;
 use boxforge_runtime::gpu::Gpu;
 use boxforge_runtime::render::dvr::transfer::TransferFunction;
-use boxforge_runtime::render::iso::{self as render, HitMode, RenderOptions};
+use boxforge_runtime::render::iso::{self as render, HitMode, RenderOptions, Shade, ShadeMode};
 use boxforge_runtime::render::schemes::Scheme;
 use boxforge_runtime::scene::{self, Conversion};
 
@@ -90,6 +90,21 @@ pub struct RenderArgs {
     /// feature missed) or fixed steps of --step (default: the faster one on lavapipe).
     #[arg(long, value_enum, default_value = "step")]
     hit: HitArg,
+    /// How isosurface hits are coloured: Blinn-Phong, or from the principal
+    /// curvatures k1, k2 of `<f>_eval_hessian` (Kindlmann et al. 2003):
+    /// a (k1, k2) colormap (convex red, concave blue, saddle green), mean or
+    /// Gaussian curvature, ridges and valleys, or view-dependent contours.
+    /// Needs a filter of degree >= 2; warns for C^1 filters (the Hessian
+    /// jumps across knot planes).
+    #[arg(long, value_enum, default_value = "phong")]
+    shade: ShadeArg,
+    /// With --shade: the radius of curvature in cells at which the colours
+    /// saturate (|k| * radius = 1).
+    #[arg(long, default_value_t = 4.0, allow_negative_numbers = true)]
+    curvature_radius: f32,
+    /// With --shade contours: Kindlmann's contour thickness T in cells.
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
+    contour_thickness: f32,
     #[arg(long, value_enum, default_value = "embedded")]
     layout: LayoutArg,
     /// Brick edge in lattice texels (with --layout bricked; the halo is the
@@ -144,6 +159,30 @@ enum CacheArg {
 enum RendererArg {
     Raycast,
     Pt,
+}
+
+/// `--shade`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+enum ShadeArg {
+    Phong,
+    Curvature,
+    Mean,
+    Gaussian,
+    Ridges,
+    Contours,
+}
+
+impl From<ShadeArg> for ShadeMode {
+    fn from(s: ShadeArg) -> ShadeMode {
+        match s {
+            ShadeArg::Phong => ShadeMode::Phong,
+            ShadeArg::Curvature => ShadeMode::Curvature,
+            ShadeArg::Mean => ShadeMode::Mean,
+            ShadeArg::Gaussian => ShadeMode::Gaussian,
+            ShadeArg::Ridges => ShadeMode::Ridges,
+            ShadeArg::Contours => ShadeMode::Contours,
+        }
+    }
 }
 
 /// `--hit`.
@@ -207,6 +246,28 @@ pub fn run(a: RenderArgs) -> Result<(), Failure> {
         _ => None,
     };
     let layout = Layout::from(a.layout);
+    let shade = Shade { mode: a.shade.into(), radius: a.curvature_radius, thickness: a.contour_thickness };
+    if shade.mode.needs_hessian() {
+        let other = if dvr.is_some() {
+            Some("--mode dvr")
+        } else if perm.is_some() {
+            Some("--cache perm")
+        } else if pt {
+            Some("--renderer pt")
+        } else if a.gpu_budget.is_some() {
+            Some("--gpu-budget")
+        } else if Scheme::parse(&a.filter).is_some() {
+            Some("a hand-written scheme")
+        } else {
+            None
+        };
+        if let Some(other) = other {
+            return Err(Failure(format!(
+                "--shade {} colours the isosurfaces of the ray caster, not {other}: drop one of them",
+                shade.mode.name()
+            )));
+        }
+    }
     let budget = a.gpu_budget.as_deref().map(request::parse_budget).transpose()?;
     match budget {
         Some(_) => request::check_paged(
@@ -237,6 +298,18 @@ pub fn run(a: RenderArgs) -> Result<(), Failure> {
     let d = Derivation::new(&f)?;
     if d.facts.dim != 3 {
         return Err(Failure(format!("{} is {}D: render needs a 3D filter", f.name, d.facts.dim)));
+    }
+    render::check_shade(&d, &shade).map_err(|e| match e {
+        boxforge_runtime::gpu::GpuError::Runtime(m) => Failure(m),
+        e => Failure(e.to_string()),
+    })?;
+    if shade.mode.needs_hessian() && d.facts.continuity < 2 {
+        eprintln!(
+            "warning: {} is C^{}: its Hessian jumps across knot planes, so --shade {} is discontinuous there (C^2 filters such as bcc7 or cc_tricubic shade smoothly)",
+            d.filter.name,
+            d.facts.continuity,
+            shade.mode.name()
+        );
     }
     let lat = match &a.lattice {
         Some(l) => boxforge::spec::lattice::Lattice::builtin(l)?,
@@ -368,6 +441,7 @@ pub fn run(a: RenderArgs) -> Result<(), Failure> {
                 progress: true,
                 frames: 1,
                 volume,
+                shade,
                 ..RenderOptions::default()
             };
             render::render(&gpu, &d, &vol, layout, &opts).map_err(|e| e.to_string())
