@@ -22,6 +22,9 @@ pub const KIM_LEE_BCC7: &str = include_str!("../references/kim_lee_bcc7.wgsl");
 /// de Casteljau); the BB tables' provenance is in the file's header.
 pub const KIM_FCC6: &str = include_str!("../references/kim_fcc6.wgsl");
 pub const SEPARABLE_TRICUBIC: &str = include_str!("../references/separable_tricubic.wgsl");
+/// The tricubic value, gradient and Hessian by separable weights (timed by
+/// `boxforge bench --hessian` beside `cc_tricubic_eval_hessian`).
+pub const SEPARABLE_TRICUBIC_HESSIAN: &str = include_str!("../references/separable_tricubic_hessian.wgsl");
 pub const SIGG_HADWIGER_TRICUBIC: &str = include_str!("../references/sigg_hadwiger_tricubic.wgsl");
 /// Mattausch et al.'s bilinear and bilinear-plus-spatial BCC schemes, on the
 /// generated `bcc_linear` module's fetch (not box splines of the catalog:

@@ -73,71 +73,9 @@ fn central(name: &str) -> String {
     )
 }
 
-/// The separable tricubic Hessian, hand-written: cubic B-spline weights of
-/// the four samples per axis and their first and second derivatives, the
-/// 64 fetches contracted along x, then y, then z (value, 3 first and 6
-/// second derivatives carried), read through the generated module's
-/// `cc_tricubic_fetch`.
-pub const SEPARABLE_TRICUBIC: &str = r#"
-fn sep_w(t: f32) -> vec4<f32> {
-    let s = 1.0 - t;
-    let t2 = t * t;
-    let t3 = t2 * t;
-    return vec4<f32>(s * s * s, 3.0 * t3 - 6.0 * t2 + 4.0, -3.0 * t3 + 3.0 * t2 + 3.0 * t + 1.0, t3) * (1.0 / 6.0);
-}
-fn sep_dw(t: f32) -> vec4<f32> {
-    let s = 1.0 - t;
-    return vec4<f32>(-0.5 * s * s, 1.5 * t * t - 2.0 * t, -1.5 * t * t + t + 0.5, 0.5 * t * t);
-}
-fn sep_hw(t: f32) -> vec4<f32> {
-    return vec4<f32>(1.0 - t, 3.0 * t - 2.0, 1.0 - 3.0 * t, t);
-}
-fn bx_separable(p: vec3<f32>) -> vec4<f32> {
-    let fl = floor(p);
-    let t = p - fl;
-    let base = vec3<i32>(fl) - vec3<i32>(1);
-    let wx = sep_w(t.x);
-    let dx = sep_dw(t.x);
-    let hx = sep_hw(t.x);
-    let wy = sep_w(t.y);
-    let dy = sep_dw(t.y);
-    let hy = sep_hw(t.y);
-    let wz = sep_w(t.z);
-    let dz = sep_dw(t.z);
-    let hz = sep_hw(t.z);
-    var v = 0.0;
-    var g = vec3<f32>(0.0);
-    var hd = vec3<f32>(0.0);
-    var ho = vec3<f32>(0.0);
-    for (var k = 0; k < 4; k++) {
-        // Along y for this z: value, d/dx, d2/dx2, d/dy, d2/dxdy, d2/dy2.
-        var sy = vec3<f32>(0.0);
-        var sdy = vec2<f32>(0.0);
-        var shy = 0.0;
-        for (var j = 0; j < 4; j++) {
-            let r = base + vec3<i32>(0, j, k);
-            let f = vec4<f32>(
-                cc_tricubic_fetch(r),
-                cc_tricubic_fetch(r + vec3<i32>(1, 0, 0)),
-                cc_tricubic_fetch(r + vec3<i32>(2, 0, 0)),
-                cc_tricubic_fetch(r + vec3<i32>(3, 0, 0)),
-            );
-            let sx = vec3<f32>(dot(f, wx), dot(f, dx), dot(f, hx));
-            sy += wy[j] * sx;
-            sdy += dy[j] * sx.xy;
-            shy += hy[j] * sx.x;
-        }
-        // Along z.
-        v += wz[k] * sy.x;
-        g += vec3<f32>(wz[k] * sy.y, wz[k] * sdy.x, dz[k] * sy.x);
-        hd += vec3<f32>(wz[k] * sy.z, wz[k] * shy, hz[k] * sy.x);
-        ho += vec3<f32>(wz[k] * sdy.y, dz[k] * sy.y, dz[k] * sdy.x);
-    }
-    // ho: (xy, xz, yz).
-    let hm = mat3x3<f32>(vec3<f32>(hd.x, ho.x, ho.y), vec3<f32>(ho.x, hd.y, ho.z), vec3<f32>(ho.y, ho.z, hd.z));
-    return vec4<f32>(hm[0] + 0.5 * hm[1] + 0.25 * hm[2], v + dot(g, vec3<f32>(1.0, 0.5, 0.25)));
-}
-"#;
+/// The separable tricubic Hessian, hand-written
+/// (runtime/references/separable_tricubic_hessian.wgsl).
+pub const SEPARABLE_TRICUBIC: &str = crate::references::SEPARABLE_TRICUBIC_HESSIAN;
 
 /// Is `p` farther than `dist` (Euclidean, lattice units) from every knot plane?
 fn far_from_knot_planes(d: &boxforge::derive::Derivation, p: &[f32; 4], dist: f32) -> bool {
