@@ -11,6 +11,7 @@
 //! report), markdown.rs (docs/BENCHMARKS.md) and error.rs. The other modes
 //! of `boxforge bench` have their own public modules.
 
+pub mod curvature;
 pub mod derive;
 pub mod dvr;
 pub mod glsl_rivals;

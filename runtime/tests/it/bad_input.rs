@@ -145,6 +145,8 @@ fn cases(dir: &Path) -> Vec<(Vec<String>, &'static str)> {
         (render(&["--shade", "curvature", "--curvature-radius", "0"]), "radius"),
         (render(&["--shade", "contours", "--contour-thickness", "-1"]), "thickness"),
         (render(&["--shade", "ridges", "--gpu-budget", "64MiB"]), "--gpu-budget"),
+        (render(&["--tf-curvature"]), "--mode dvr"),
+        (render(&["--tf-curvature", "--mode", "dvr", "--tf", "marschner-lobb", "--cache", "perm"]), "--cache perm"),
         (args(&["render", "--filter", "bcc_linear", "--volume", "ml:8", "--shade", "mean", "--out", &out]), "degree 1"),
         // render: filters, lattices, outputs
         (args(&["render", "--filter", "courant", "--volume", "ml:8", "--out", &out]), "2D"),

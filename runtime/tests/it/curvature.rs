@@ -84,3 +84,21 @@ fn curvature_needs_a_filter_of_degree_two() {
     let e = render(gpu, &d, &vol, Layout::Embedded, &o).err().expect("bcc_linear has no Hessian");
     assert!(e.to_string().contains("degree 1"), "{e}");
 }
+
+/// `render --mode dvr --tf-curvature`: the curvature transfer function on
+/// the device against the CPU reference (f64 Hessian), and it changes the picture.
+#[test]
+fn the_curvature_transfer_function_matches_the_cpu_reference() {
+    use boxforge_runtime::render::dvr::{cpu_render as dvr_cpu, render as dvr_render, rms, DvrOptions};
+    let gpu = crate::common::gpu();
+    let d = Derivation::new(&boxforge::spec::catalog::get("bcc7").unwrap()).unwrap();
+    let vol = LatticeVolume::marschner_lobb(&d.filter.lattice, [24, 24, 24]).unwrap();
+    let tf = boxforge_runtime::render::dvr::transfer::TransferFunction::preset("marschner-lobb");
+    let o = DvrOptions { width: 32, height: 32, frames: 1, curvature: Some(3.0), ..DvrOptions::default() };
+    let frame = dvr_render(gpu, &d, &vol, Layout::Embedded, &tf, &o).unwrap();
+    let reference = dvr_cpu(&d, &vol, &tf, &o);
+    let r = rms(&frame.rgba, &reference);
+    assert!(r < 1.0, "RMS {r:.3}/255");
+    let plain = dvr_cpu(&d, &vol, &tf, &DvrOptions { curvature: None, ..o.clone() });
+    assert!(rms(&plain, &reference) > 5.0, "the curvature transfer function colours the volume");
+}

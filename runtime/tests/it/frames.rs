@@ -64,6 +64,7 @@ fn look(o: &DvrOptions) -> DvrLook {
         skip_map: o.skip_map,
         preintegrate: o.preintegrate,
         termination: o.termination,
+        curvature: o.curvature,
     }
 }
 

@@ -44,6 +44,12 @@ pub struct BenchArgs {
     /// Hessian: with --markdown, replaces only its section of the file.
     #[arg(long, conflicts_with_all = ["derive", "literature", "perm", "volumes"])]
     hessian: bool,
+    /// Measure curvature fidelity instead (CPU, no device): the error of
+    /// the principal curvatures on a sphere against the sample spacing, the
+    /// measured order beside approximation order - 2, for every filter of
+    /// degree >= 2: with --markdown, replaces only its section of the file.
+    #[arg(long, conflicts_with_all = ["derive", "literature", "perm", "volumes", "hessian"])]
+    curvature: bool,
     /// Edge of the generated out-of-core volume (default 1024; 64 with --smoke).
     #[arg(long, requires = "volumes")]
     large_edge: Option<usize>,
@@ -100,6 +106,8 @@ pub fn run(a: BenchArgs) -> Result<(), Failure> {
         volumes(&a)
     } else if a.hessian {
         hessian(&a)
+    } else if a.curvature {
+        curvature(&a)
     } else if a.references_only {
         references_only(&a)
     } else {
@@ -239,6 +247,35 @@ fn hessian(a: &BenchArgs) -> Result<(), Failure> {
     let report = report.map_err(|e| Failure(e.to_string()))?;
     let text = bench::hessian::markdown(&report, section.command());
     section.finish(&report, &text, bench::hessian::splice, a.json)
+}
+
+/// `--curvature`: the curvature error's order of convergence per filter.
+fn curvature(a: &BenchArgs) -> Result<(), Failure> {
+    let names: Vec<String> = if a.filters.is_empty() {
+        boxforge::spec::catalog::names().into_iter().map(String::from).collect()
+    } else {
+        a.filters.clone()
+    };
+    let points = if a.smoke { 50 } else { 2000 };
+    let mut flags = format!("--curvature{}", smoke_runs(a, false));
+    if !a.filters.is_empty() {
+        flags.push_str(&format!(" --filters {}", a.filters.join(",")));
+    }
+    let section = Section::new("curvature", &flags, a.markdown.as_deref())?;
+    let steps = progress::Steps::new();
+    let mut rows = Vec::new();
+    for name in &names {
+        let f = boxforge::spec::resolve(name)?;
+        let d = boxforge::derive::Derivation::new(&f)?;
+        if d.facts.dim != 3 || d.facts.degree < 2 || f.view_dependent {
+            continue;
+        }
+        steps.step(&format!("{name}: curvature error at {} spacings", bench::curvature::CELLS_PER_UNIT.len()));
+        rows.push(bench::curvature::curvature_order(&d, points));
+    }
+    steps.finish();
+    let text = bench::curvature::markdown(&rows, points, section.command());
+    section.finish(&rows, &text, bench::curvature::splice, a.json)
 }
 
 /// `--volumes`: bricks, compact formats and out-of-core frames.
@@ -405,6 +442,7 @@ fn main_report(a: BenchArgs) -> Result<(), Failure> {
                 bench::perm::existing_section(&old),
                 bench::volumes::existing_section(&old),
                 bench::hessian::existing_section(&old),
+                bench::curvature::existing_section(&old),
             ];
             for section in kept.into_iter().flatten() {
                 text = format!("{}\n\n{section}\n", text.trim_end());

@@ -10,7 +10,7 @@ use boxforge_runtime::pictures::text::Typeface;
 use boxforge_runtime::pictures::{self, Image, Tile};
 use boxforge_runtime::render::dvr::transfer::TransferFunction;
 use boxforge_runtime::render::dvr::DvrOptions;
-use boxforge_runtime::render::iso::{self as render, RenderOptions};
+use boxforge_runtime::render::iso::{self as render, RenderOptions, Shade, ShadeMode};
 use boxforge_runtime::scene::{self, matched_edge, Conversion};
 use boxforge_runtime::volume::{LatticeVolume, Volume};
 use std::path::Path;
@@ -66,6 +66,9 @@ pub fn run(out: &Path, size: u32, adapter: Option<&str>) -> Result<(), String> {
     let mut rms_vs_samples = Vec::new();
     let mut convergence = Vec::new();
     let mut rates = Vec::new();
+    // Marschner-Lobb tiles, then the head's: one row each.
+    let mut curvature_tiles: [Vec<Tile>; 2] = [Vec::new(), Vec::new()];
+    let mut curvature_series = Vec::new();
     for name in FILTERS {
         steps.step(&format!("{name}: Marschner-Lobb and the MNI head"));
         let d = Derivation::new(&boxforge::spec::catalog::get(name).map_err(|e| e.to_string())?)
@@ -74,7 +77,8 @@ pub fn run(out: &Path, size: u32, adapter: Option<&str>) -> Result<(), String> {
         // Marschner-Lobb at a matched sample budget.
         let e = matched_edge(&lat, ML_EDGE.powi(3));
         let ml = LatticeVolume::marschner_lobb(&lat, [e, e, e]).map_err(|e| e.to_string())?;
-        let opts = RenderOptions { width: size, height: size, iso: 0.5, step: 0.25, ..RenderOptions::default() };
+        let ml_opts = RenderOptions { width: size, height: size, iso: 0.5, step: 0.25, ..RenderOptions::default() };
+        let opts = ml_opts.clone();
         let frame = render::render(&gpu, &d, &ml, Layout::Embedded, &opts).map_err(|e| e.to_string())?;
         let ml_png = out.join(format!("ml_{name}.png"));
         render::write_png(&ml_png, frame.width, frame.height, &frame.rgba).map_err(|e| e.to_string())?;
@@ -145,6 +149,24 @@ pub fn run(out: &Path, size: u32, adapter: Option<&str>) -> Result<(), String> {
             mni_png.display(),
             dvr_png.display()
         ));
+        // Curvature (Kindlmann's (k1, k2) colormap from eval_hessian) on both volumes.
+        let shade = Shade { mode: ShadeMode::Curvature, ..Shade::default() };
+        let ml_curv = render::render(&gpu, &d, &ml, Layout::Embedded, &RenderOptions { shade, ..ml_opts.clone() })
+            .map_err(|e| e.to_string())?;
+        let head_curv = render::render(&gpu, &d, &head, Layout::Embedded, &RenderOptions { shade, ..opts.clone() })
+            .map_err(|e| e.to_string())?;
+        let smooth = format!("C^{}{}", d.facts.continuity, if d.facts.continuity >= 2 { "" } else { ": H jumps" });
+        for (i, (f, what)) in [(ml_curv, "ML"), (head_curv, "MNI head")].into_iter().enumerate() {
+            curvature_tiles[i].push(Tile {
+                image: Image::from_rgba(f.width, f.height, f.rgba),
+                caption: vec![caption_head(&d), what.into(), smooth.clone()],
+            });
+        }
+        let c = boxforge_runtime::bench::curvature::curvature_order(&d, 400);
+        curvature_series.push(Series {
+            name: format!("{name} (order {:.2}, theory {})", c.measured_order, c.theory),
+            points: c.cells_per_unit.iter().zip(&c.rms_errors).map(|(n, e)| (1.0 / n, *e)).collect(),
+        });
         let row = Row {
             filter: name.to_string(),
             lattice: lat.name.clone(),
@@ -225,9 +247,27 @@ pub fn run(out: &Path, size: u32, adapter: Option<&str>) -> Result<(), String> {
     let plot_conv =
         plots::log_log("Convergence on a smooth signal (prefiltered)", "sample spacing h", "RMS error", &convergence)
             .map_err(|e| e.to_string())?;
+    let curvature_sheet = pictures::contact_sheet(
+        &face,
+        "Curvature (k1, k2) from eval_hessian: convex red, concave blue, saddle green",
+        &curvature_tiles.into_iter().flatten().collect::<Vec<_>>(),
+        FILTERS.len(),
+    );
+    pictures::write_png(&out.join("curvature.png"), &curvature_sheet).map_err(|e| e.to_string())?;
+    let plot_curvature = plots::log_log(
+        "Curvature error on a sphere (f64, prefiltered)",
+        "sample spacing h",
+        "RMS error of k1, k2",
+        &curvature_series,
+    )
+    .map_err(|e| e.to_string())?;
     let plot_rate = plots::bars(&format!("evals/s on {adapter}"), "evals/s", &rates).map_err(|e| e.to_string())?;
-    for (f, svg) in [("plot_rms.svg", &plot_rms), ("plot_convergence.svg", &plot_conv), ("plot_evals.svg", &plot_rate)]
-    {
+    for (f, svg) in [
+        ("plot_rms.svg", &plot_rms),
+        ("plot_convergence.svg", &plot_conv),
+        ("plot_curvature.svg", &plot_curvature),
+        ("plot_evals.svg", &plot_rate),
+    ] {
         std::fs::write(out.join(f), svg).map_err(|e| format!("cannot write {}: {e}", out.join(f).display()))?;
     }
     let table = Block::Table {
@@ -273,6 +313,10 @@ pub fn run(out: &Path, size: u32, adapter: Option<&str>) -> Result<(), String> {
                 src: "literature.png".into(),
                 caption: "Renderers of the literature on Marschner-Lobb (DVR, one transfer function): Mattausch et al.'s sheared trilinear and barycentric BCC schemes ray cast, projected tetrahedra on BCC and CC, CC trilinear; `boxforge bench --literature` measures them".into(),
             },
+            Block::Image {
+                src: "curvature.png".into(),
+                caption: "render --shade curvature: principal curvatures from the generated eval_hessian on Marschner-Lobb and the MNI head".into(),
+            },
             Block::Heading("Error".into()),
             Block::Image { src: "errors.png".into(), caption: "|reconstruction - analytic| on the middle slice, one scale".into() },
             Block::Heading("Quality".into()),
@@ -280,6 +324,7 @@ pub fn run(out: &Path, size: u32, adapter: Option<&str>) -> Result<(), String> {
             Block::Heading("Plots".into()),
             Block::Svg(plot_rms),
             Block::Svg(plot_conv),
+            Block::Svg(plot_curvature),
             Block::Svg(plot_rate),
         ],
     );

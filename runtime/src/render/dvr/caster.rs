@@ -269,5 +269,6 @@ pub(crate) fn look_of(o: &DvrOptions) -> DvrLook {
         skip_map: o.skip_map,
         preintegrate: o.preintegrate,
         termination: o.termination,
+        curvature: o.curvature,
     }
 }

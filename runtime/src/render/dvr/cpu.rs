@@ -21,6 +21,11 @@ pub fn cpu_render(d: &Derivation, vol: &LatticeVolume, tf: &TransferFunction, o:
     let p = dvr_params(d, vol, &table, pi.as_ref().map_or(2, |p| p.size), o);
     let data = |j: &[i64]| vol.get(j) as f64;
     let f = |x: DVec3| d.eval_f64(&x.to_array(), &data);
+    // The curvature transfer function: (colour, opacity factor) from the Hessian.
+    let curvature = |x: DVec3, r: f64| {
+        let (_, g, h) = d.eval_f64_hessian(&x.to_array(), &data);
+        crate::render::iso::curvature::curvature_tf(DVec3::from_slice(&g), glam::DMat3::from_cols_slice(&h), r)
+    };
     let (w, h) = (o.width as usize, o.height as usize);
     let rows: Vec<usize> = (0..h).collect();
     let threads = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
@@ -29,7 +34,7 @@ pub fn cpu_render(d: &Derivation, vol: &LatticeVolume, tf: &TransferFunction, o:
         let handles: Vec<_> = rows
             .chunks(h.div_ceil(threads).max(1))
             .map(|rows| {
-                let (f, table, pi, p) = (&f, &table, pi.as_ref(), &p);
+                let (f, table, pi, p, curvature) = (&f, &table, pi.as_ref(), &p, &curvature);
                 s.spawn(move || {
                     let mut part = Vec::new();
                     for &y in rows {
@@ -44,7 +49,7 @@ pub fn cpu_render(d: &Derivation, vol: &LatticeVolume, tf: &TransferFunction, o:
                             } else {
                                 (eye + sx * rt + sy * up, fw)
                             };
-                            part.push((y, x, cast_ray(f, table, pi, origin, dir, p, o)));
+                            part.push((y, x, cast_ray(f, curvature, table, pi, origin, dir, p, o)));
                         }
                     }
                     part
@@ -61,8 +66,10 @@ pub fn cpu_render(d: &Derivation, vol: &LatticeVolume, tf: &TransferFunction, o:
     out
 }
 
+#[allow(clippy::too_many_arguments)] // the shader's inputs, one by one
 fn cast_ray(
     f: &dyn Fn(DVec3) -> (f64, Vec<f64>),
+    curvature: &dyn Fn(DVec3, f64) -> (DVec3, f64),
     table: &Tf1d,
     pi: Option<&Preint>,
     origin: DVec3,
@@ -101,7 +108,7 @@ fn cast_ray(
             }
             let (sb, g) = f(at(t0 + (k + 1) as f64 * step));
             let gb = DVec3::from_slice(&g);
-            let (seg, g) = match pi {
+            let (mut seg, g) = match pi {
                 Some(pi) => (pi.at(sf, sb), 0.5 * (gf + gb)),
                 None => {
                     let s = table.at(sb);
@@ -109,6 +116,11 @@ fn cast_ray(
                     ([s[0] * a, s[1] * a, s[2] * a, a], gb)
                 }
             };
+            if let Some(r) = o.curvature {
+                let (c, m) = curvature(at(t0 + (k + 1) as f64 * step), r as f64);
+                let a = seg[3] * m;
+                seg = [c.x * a, c.y * a, c.z * a, a];
+            }
             if seg[3] > 0.0 {
                 let g2 = g.length_squared();
                 let wgt = g2 / (g2 + g0 * g0);

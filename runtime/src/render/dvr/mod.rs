@@ -92,6 +92,9 @@ pub struct DvrOptions {
     pub progress: bool,
     /// How the one-shot [`render`] stores the samples (format, bricks).
     pub volume: crate::volume::VolumeOptions,
+    /// The curvature transfer function (`--tf-curvature`) with its
+    /// saturation radius in cells: colour by (k1, k2) from `<f>_eval_hessian`.
+    pub curvature: Option<f32>,
 }
 
 impl Default for DvrOptions {
@@ -111,6 +114,7 @@ impl Default for DvrOptions {
             frames: 3,
             progress: false,
             volume: Default::default(),
+            curvature: None,
         }
     }
 }
@@ -145,12 +149,23 @@ pub(crate) fn dvr_template(name: &str, lookup: bool) -> String {
 /// [`DvrRenderer`] (group 1, bindings 6 and 7; without it the text is the
 /// one the web viewer, PERM and the schemes have always had).
 pub(crate) fn dvr_template_with(name: &str, lookup: bool, host_depth: bool) -> String {
+    dvr_template_curvature(name, lookup, host_depth, None)
+}
+
+/// [`dvr_template_with`] with the curvature transfer function of radius
+/// `curvature` (cells): samples from `<f>_eval_hessian`, coloured by (k1, k2).
+pub(crate) fn dvr_template_curvature(name: &str, lookup: bool, host_depth: bool, curvature: Option<f32>) -> String {
     let mut env = minijinja::Environment::new();
     env.add_template("dvr", include_str!("../../../../templates/dvr.wgsl.j2")).expect("template");
-    env.get_template("dvr")
+    let text = env
+        .get_template("dvr")
         .unwrap()
-        .render(minijinja::context! { name => name, perm => lookup, host_depth => host_depth })
-        .expect("render")
+        .render(minijinja::context! { name => name, perm => lookup, host_depth => host_depth, curvature => curvature.is_some() })
+        .expect("render");
+    match curvature {
+        Some(r) => format!("{text}{}", crate::render::iso::curvature::curvature_tf_wgsl(name, r)),
+        None => text,
+    }
 }
 
 /// The emitted module with the DVR template appended.

@@ -13,7 +13,7 @@
 use super::params::{dvr_params_for, DvrParams};
 use super::skip::{empty_flags, skip_distances};
 use super::transfer::TransferFunction;
-use super::{dvr_template_with, filter_module_with, DvrOptions};
+use super::{filter_module_with, DvrOptions};
 use crate::gpu::binding::layout_entries_from;
 use crate::gpu::{Gpu, GpuError};
 use crate::render::blocks::block_bounds;
@@ -39,6 +39,8 @@ pub struct DvrLook {
     pub preintegrate: bool,
     /// Early ray termination opacity.
     pub termination: f32,
+    /// The curvature transfer function's radius (None: the value TF alone).
+    pub curvature: Option<f32>,
 }
 
 impl Default for DvrLook {
@@ -88,7 +90,15 @@ impl DvrRenderer {
         let name = &d.filter.name;
         volume.check_filter(d)?;
         let module = filter_module_with(d, &volume.emit_options(super::DVR_COMMAND))?;
-        let source = format!("{}\n{}", module, dvr_template_with(name, false, true));
+        if let Some(radius) = look.curvature {
+            let shade = crate::render::iso::Shade {
+                mode: crate::render::iso::ShadeMode::Curvature,
+                radius,
+                ..Default::default()
+            };
+            crate::render::iso::check_shade(d, &shade)?;
+        }
+        let source = format!("{}\n{}", module, super::dvr_template_curvature(name, false, true, look.curvature));
         let shader = gpu.compile(&format!("{name}.dvr.wgsl"), &source)?;
         // Group 1 (parameters, image, skipping flags, tables, host depth) as the template declares it.
         let bindings = boxforge::validate::bindings_of_wgsl(&source)

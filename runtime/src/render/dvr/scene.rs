@@ -25,6 +25,8 @@ pub struct DvrScene<'a> {
     pub(crate) dv: DeviceVolume,
     /// [min, max] of the spline over each block (x fastest).
     pub bounds: Vec<[f32; 2]>,
+    /// The curvature transfer function's radius the shader was built with.
+    curvature: Option<f32>,
 }
 
 impl<'a> DvrScene<'a> {
@@ -55,6 +57,35 @@ impl<'a> DvrScene<'a> {
         dv.check_filter(d)?;
         let source = shader_source_with(d, &dv.emit_options(super::DVR_COMMAND), false)?;
         Self::with_device_volume(gpu, d, vol, dv, block, Custom { name, source: &source, minmax: name, reach: 0 })
+    }
+
+    /// [`DvrScene::with_volume`] with the curvature transfer function of
+    /// radius `curvature` cells (`DvrOptions::curvature`; None: without):
+    /// the ray caster samples `<f>_eval_hessian` and colours by (k1, k2).
+    pub fn with_curvature(
+        gpu: &'a Gpu,
+        d: &'a Derivation,
+        vol: &'a LatticeVolume,
+        layout: Layout,
+        block: i32,
+        volume: &VolumeOptions,
+        curvature: Option<f32>,
+    ) -> Result<DvrScene<'a>, GpuError> {
+        let Some(radius) = curvature else {
+            return Self::with_volume(gpu, d, vol, layout, block, volume);
+        };
+        let shade =
+            crate::render::iso::Shade { mode: crate::render::iso::ShadeMode::Curvature, radius, ..Default::default() };
+        crate::render::iso::check_shade(d, &shade)?;
+        let name = &d.filter.name;
+        let dv = DeviceVolume::with_options(gpu, vol, layout, volume)?;
+        dv.check_filter(d)?;
+        let module = super::filter_module_with(d, &dv.emit_options(super::DVR_COMMAND))?;
+        let source = format!("{module}\n{}", super::dvr_template_curvature(name, false, false, curvature));
+        let mut scene =
+            Self::with_device_volume(gpu, d, vol, dv, block, Custom { name, source: &source, minmax: name, reach: 0 })?;
+        scene.curvature = curvature;
+        Ok(scene)
     }
 
     /// A scene whose ray caster evaluates a function other than `d`'s
@@ -109,7 +140,7 @@ impl<'a> DvrScene<'a> {
             layout: &bgl_s,
             entries: &dv.bind_entries(0),
         });
-        Ok(DvrScene { gpu, d, vol, block, pipeline, bgl_rc, bgl_s, bg_s, dv, bounds })
+        Ok(DvrScene { gpu, d, vol, block, pipeline, bgl_rc, bgl_s, bg_s, dv, bounds, curvature: None })
     }
 
     /// The edge of the skipping blocks the scene bounded, in unit cubes.
@@ -134,6 +165,12 @@ impl<'a> DvrScene<'a> {
             return Err(GpuError::Runtime(format!(
                 "the scene's block grid has edge {}, the options ask for {}",
                 self.block, o.block
+            )));
+        }
+        if o.curvature != self.curvature {
+            return Err(GpuError::Runtime(format!(
+                "the scene's shader has curvature transfer function {:?}, the options ask for {:?}: build the scene with DvrScene::with_curvature",
+                self.curvature, o.curvature
             )));
         }
         if let Some(p) = pi.filter(|p| p.step != o.step) {
@@ -222,5 +259,5 @@ pub fn render(
     tf: &TransferFunction,
     o: &DvrOptions,
 ) -> Result<Frame, GpuError> {
-    DvrScene::with_volume(gpu, d, vol, layout, o.block, &o.volume)?.render(tf, o)
+    DvrScene::with_curvature(gpu, d, vol, layout, o.block, &o.volume, o.curvature)?.render(tf, o)
 }

@@ -262,6 +262,55 @@ fn {name}_curvature_shade(ph: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {{
     }
 }
 
+/// The curvature transfer function of DVR (`render --mode dvr
+/// --tf-curvature`): a 2D transfer function over (k1, k2) of the isosurface
+/// through each sample, Kindlmann et al.'s curvature axis. The colour is the
+/// (k1, k2) colormap of [`ShadeMode::Curvature`] (convex red, concave blue,
+/// saddle green, flat grey), the value transfer function's opacity is
+/// scaled by 0.25 + 0.75 min(max(|k1|, |k2|) R, 1): curved features stay,
+/// flat sheets fade. Returns (colour, opacity factor).
+pub fn curvature_tf(g: DVec3, h: DMat3, radius: f64) -> (DVec3, f64) {
+    let (k1, k2, _) = curvature_frame(g, h);
+    let a = (k1 * radius).clamp(-1.0, 1.0);
+    let b = (k2 * radius).clamp(-1.0, 1.0);
+    let convex = b.max(0.0);
+    let concave = (-a).max(0.0);
+    let saddle = a.max(0.0).min((-b).max(0.0));
+    let base = DVec3::splat(0.85)
+        + convex * DVec3::new(0.15, -0.55, -0.55)
+        + concave * DVec3::new(-0.55, -0.45, 0.15)
+        + saddle * DVec3::new(-0.45, 0.1, -0.45);
+    (base, 0.25 + 0.75 * a.abs().max(b.abs()))
+}
+
+/// `fn <name>_curvature_tf(g, h) -> vec4<f32>`: [`curvature_tf`] in WGSL
+/// (xyz the colour, w the opacity factor).
+pub fn curvature_tf_wgsl(name: &str, radius: f32) -> String {
+    format!(
+        r#"
+// The curvature transfer function over (k1, k2) (Kindlmann et al. 2003), R = {radius:?} cells.
+fn {name}_curvature_tf(g: vec3<f32>, h: mat3x3<f32>) -> vec4<f32> {{
+    let glen = max(length(g), 1e-20);
+    let n = -g / glen;
+    let p = mat3x3<f32>(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), vec3<f32>(0.0, 0.0, 1.0))
+        - mat3x3<f32>(n * n.x, n * n.y, n * n.z);
+    let gm = (p * h * p) * (-1.0 / glen);
+    let t = gm[0][0] + gm[1][1] + gm[2][2];
+    let f2 = dot(gm[0], gm[0]) + dot(gm[1], gm[1]) + dot(gm[2], gm[2]);
+    let disc = sqrt(max(2.0 * f2 - t * t, 0.0));
+    let a = clamp(0.5 * (t + disc) * {radius:?}, -1.0, 1.0);
+    let b = clamp(0.5 * (t - disc) * {radius:?}, -1.0, 1.0);
+    let convex = max(b, 0.0);
+    let concave = max(-a, 0.0);
+    let saddle = min(max(a, 0.0), max(-b, 0.0));
+    let base = vec3<f32>(0.85) + convex * vec3<f32>(0.15, -0.55, -0.55)
+        + concave * vec3<f32>(-0.55, -0.45, 0.15) + saddle * vec3<f32>(-0.45, 0.1, -0.45);
+    return vec4<f32>(base, 0.25 + 0.75 * max(abs(a), abs(b)));
+}}
+"#
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -98,7 +98,13 @@ pub struct RenderArgs {
     /// jumps across knot planes).
     #[arg(long, value_enum, default_value = "phong")]
     shade: ShadeArg,
-    /// With --shade: the radius of curvature in cells at which the colours
+    /// With --mode dvr: the curvature transfer function, a 2D transfer
+    /// function over (k1, k2) of `<f>_eval_hessian` (Kindlmann et al. 2003):
+    /// colour by the (k1, k2) colormap, the value transfer function's opacity
+    /// scaled down on flat sheets (0.25 + 0.75 min(max(|k1|, |k2|) R, 1)).
+    #[arg(long)]
+    tf_curvature: bool,
+    /// With --shade or --tf-curvature: the radius of curvature in cells at which the colours
     /// saturate (|k| * radius = 1).
     #[arg(long, default_value_t = 4.0, allow_negative_numbers = true)]
     curvature_radius: f32,
@@ -247,6 +253,24 @@ pub fn run(a: RenderArgs) -> Result<(), Failure> {
     };
     let layout = Layout::from(a.layout);
     let shade = Shade { mode: a.shade.into(), radius: a.curvature_radius, thickness: a.contour_thickness };
+    if a.tf_curvature {
+        let other = if dvr.is_none() {
+            Some("isosurfaces (add --mode dvr, or use --shade curvature)")
+        } else if perm.is_some() {
+            Some("--cache perm")
+        } else if pt {
+            Some("--renderer pt")
+        } else if Scheme::parse(&a.filter).is_some() {
+            Some("a hand-written scheme")
+        } else {
+            None
+        };
+        if let Some(other) = other {
+            return Err(Failure(format!(
+                "--tf-curvature is a transfer function of the DVR ray caster, not of {other}: drop one of them"
+            )));
+        }
+    }
     if shade.mode.needs_hessian() {
         let other = if dvr.is_some() {
             Some("--mode dvr")
@@ -299,16 +323,16 @@ pub fn run(a: RenderArgs) -> Result<(), Failure> {
     if d.facts.dim != 3 {
         return Err(Failure(format!("{} is {}D: render needs a 3D filter", f.name, d.facts.dim)));
     }
-    render::check_shade(&d, &shade).map_err(|e| match e {
+    let curvature_shade = if a.tf_curvature { Shade { mode: ShadeMode::Curvature, ..shade } } else { shade };
+    render::check_shade(&d, &curvature_shade).map_err(|e| match e {
         boxforge_runtime::gpu::GpuError::Runtime(m) => Failure(m),
         e => Failure(e.to_string()),
     })?;
-    if shade.mode.needs_hessian() && d.facts.continuity < 2 {
+    if curvature_shade.mode.needs_hessian() && d.facts.continuity < 2 {
         eprintln!(
-            "warning: {} is C^{}: its Hessian jumps across knot planes, so --shade {} is discontinuous there (C^2 filters such as bcc7 or cc_tricubic shade smoothly)",
+            "warning: {} is C^{}: its Hessian jumps across knot planes, so curvature is discontinuous there (C^2 filters such as bcc7 or cc_tricubic give smooth curvature)",
             d.filter.name,
             d.facts.continuity,
-            shade.mode.name()
         );
     }
     let lat = match &a.lattice {
@@ -422,6 +446,7 @@ pub fn run(a: RenderArgs) -> Result<(), Failure> {
                 progress: true,
                 frames: 1,
                 volume,
+                curvature: a.tf_curvature.then_some(a.curvature_radius),
                 ..Default::default()
             };
             dvr::frame(&gpu, &d, &vol, layout, tf, &o, how)
