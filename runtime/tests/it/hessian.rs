@@ -54,6 +54,19 @@ fn a_mutated_hessian_coefficient_fails_the_check() {
         assert!(!bad.passed(), "{name}: a 1% error in d2/dxdy must fail: {bad:?}");
         assert!(bad.max_rel > 10.0 * good.max_rel.max(1e-7), "{name}: {} vs {}", bad.max_rel, good.max_rel);
     }
+    // Inside the generated code: one coefficient of cc_tricubic's
+    // second-derivative weights (`ddwt_*`, the only place second
+    // derivatives are made in the factored form) off by 1%.
+    let d = derive("cc_tricubic");
+    let module = emit(&d, &EmitOptions { kernels: false, ..EmitOptions::default() }).unwrap().source;
+    let line =
+        module.lines().find(|l| l.trim_start().starts_with("let ddwt") && l.contains("3.0 *")).expect("a ddwt weight");
+    let mutated = module.replacen(line, &line.replacen("3.0 *", "3.03 *", 1), 1);
+    assert_ne!(mutated, module);
+    let bad = tally(&d, &mutated, 3, |vol| random_points(&d, vol, 400, 3));
+    assert!(!bad.passed() && bad.max_rel > 1e-3, "a second-derivative weight off by 1% must fail: {bad:?}");
+    // ... and eval and eval_grad do not see it (the weights are the Hessian's alone).
+    assert!(bad.first_order.passed(), "{bad:?}");
 }
 
 #[test]
