@@ -37,7 +37,7 @@ pub use packing::PackedVolume;
 pub use raw::{parse_raw_spec, RawType};
 pub use source::{check_box_len, BrickSource};
 pub use stream::{default_cache_dir, MappedVolume};
-pub use synthetic::{marschner_lobb, marschner_lobb_grad, ml_position};
+pub use synthetic::{marschner_lobb, marschner_lobb_grad, marschner_lobb_hessian, ml_position};
 
 use error::checked_count;
 

@@ -270,8 +270,10 @@ fn curvature(a: &BenchArgs) -> Result<(), Failure> {
         if d.facts.dim != 3 || d.facts.degree < 2 || f.view_dependent {
             continue;
         }
-        steps.step(&format!("{name}: curvature error at {} spacings", bench::curvature::CELLS_PER_UNIT.len()));
-        rows.push(bench::curvature::curvature_order(&d, points));
+        for signal in [bench::curvature::Signal::Sphere, bench::curvature::Signal::MarschnerLobb] {
+            steps.step(&format!("{name}: curvature error on {signal:?} at {} spacings", signal.cells_per_unit().len()));
+            rows.push(bench::curvature::curvature_order_of(&d, signal, points));
+        }
     }
     steps.finish();
     let text = bench::curvature::markdown(&rows, points, section.command());
