@@ -451,9 +451,12 @@ pub fn verify_fetch(
         let (values, grads) = evaluator.eval(&faces)?;
         tally.check(d, &vol, &faces, &values, &grads);
     }
-    // Second order, at the same points (and brick faces).
+    // Second order, at the same points (and brick faces). `eval_hessian`
+    // always reads exact loads (only `eval` takes hardware-filtered
+    // fetches), so a linear-fetch module's Hessian is the exact-fetch one:
+    // it is checked with exact fetches only.
     let mut hessian_tally = None;
-    if module.stats.hessian_form.is_some() {
+    if module.stats.hessian_form.is_some() && fetch == FetchMode::Exact {
         let hev = hessian::HessianEvaluator::new(gpu, &module.source, &module.file_name, &d.filter.name, &dv)?;
         let mut t = hessian::HessianTally::new(range);
         let mut pts = random_points(d, &vol, points.min(POINTS_PER_DISPATCH), seed);
