@@ -25,6 +25,14 @@ pub const SEPARABLE_TRICUBIC: &str = include_str!("../references/separable_tricu
 /// The tricubic value, gradient and Hessian by separable weights (timed by
 /// `boxforge bench --hessian` beside `cc_tricubic_eval_hessian`).
 pub const SEPARABLE_TRICUBIC_HESSIAN: &str = include_str!("../references/separable_tricubic_hessian.wgsl");
+/// Kim's bcc7 value, gradient and Hessian (one quartic, three cubic and six
+/// quadratic formulas, cg-uos/bcc7's bcc7_raycast_curvature.frag), our WGSL
+/// (timed by `boxforge bench --hessian` beside `bcc7_eval_hessian`).
+pub const KIM_BCC7_HESSIAN: &str = include_str!("../references/kim_bcc7_hessian.wgsl");
+/// Kim & Kim 2023's cc6 value, gradient and Hessian (cg-uos/cc6's
+/// cc6_raycast_curvature.frag), our WGSL (timed by `boxforge bench
+/// --hessian` beside `cc6_eval_hessian`).
+pub const KIM_KIM_CC6_HESSIAN: &str = include_str!("../references/kim_kim_cc6_hessian.wgsl");
 pub const SIGG_HADWIGER_TRICUBIC: &str = include_str!("../references/sigg_hadwiger_tricubic.wgsl");
 /// Mattausch et al.'s bilinear and bilinear-plus-spatial BCC schemes, on the
 /// generated `bcc_linear` module's fetch (not box splines of the catalog:

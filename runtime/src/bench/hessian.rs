@@ -5,7 +5,11 @@
 //! for every filter of degree >= 2, and for cc_tricubic the separable
 //! tricubic Hessian (per-axis B-spline weights and their first and second
 //! derivatives, contracted axis by axis, as Sigg & Hadwiger's GPU Gems 2
-//! chapter 20 builds its derivative filters), hand-written here.
+//! chapter 20 builds its derivative filters), hand-written here; for bcc7
+//! Kim's method (one quartic, three cubic and six quadratic formulas on the
+//! reference tetrahedron, cg-uos/bcc7) and for cc6 Kim & Kim 2023's (three
+//! tetrahedron types, cg-uos/cc6), both written here in WGSL after the
+//! authors' published GLSL (runtime/references/).
 
 use super::job::{program, timed_rounds, Job};
 use super::quality::points_in;
@@ -37,6 +41,12 @@ pub fn agreement_tolerance(rival: &str) -> f64 {
 /// Step of the central differences, in lattice units (1e-2 cell, as the
 /// gradient bench's central differences of `eval`).
 pub const CENTRAL_STEP: f32 = 0.01;
+
+/// For C^1 filters, exact rivals are compared only at points farther than
+/// this (lattice units) from every knot plane: on a plane the Hessian has two
+/// right values, one per side, and f32 rounding of the locate picks either
+/// (the gap is far above that rounding, about 1e-5 at these coordinates).
+pub const KNOT_GAP: f32 = 1e-4;
 
 /// Every entry of value, gradient and Hessian in one vec4 with distinct
 /// weights (so a wrong entry changes the output and nothing is dead code).
@@ -77,6 +87,21 @@ fn central(name: &str) -> String {
 /// (runtime/references/separable_tricubic_hessian.wgsl).
 pub const SEPARABLE_TRICUBIC: &str = crate::references::SEPARABLE_TRICUBIC_HESSIAN;
 
+/// Rival name of Kim's bcc7 Hessian (runtime/references/kim_bcc7_hessian.wgsl).
+pub const KIM_BCC7: &str = "Kim bcc7 (cg-uos/bcc7)";
+/// Rival name of Kim & Kim's cc6 Hessian (runtime/references/kim_kim_cc6_hessian.wgsl).
+pub const KIM_KIM_CC6: &str = "Kim & Kim 2023 cc6 (cg-uos/cc6)";
+
+/// The hand-written rivals of `filter`: (name, WGSL, entry).
+pub fn hand_written(filter: &str) -> Vec<(&'static str, &'static str, &'static str)> {
+    match filter {
+        "cc_tricubic" => vec![("separable tricubic", SEPARABLE_TRICUBIC, "bx_separable")],
+        "bcc7" => vec![(KIM_BCC7, crate::references::KIM_BCC7_HESSIAN, "bx_kim_bcc7")],
+        "cc6" => vec![(KIM_KIM_CC6, crate::references::KIM_KIM_CC6_HESSIAN, "bx_kim_cc6")],
+        _ => Vec::new(),
+    }
+}
+
 /// Is `p` farther than `dist` (Euclidean, lattice units) from every knot plane?
 fn far_from_knot_planes(d: &boxforge::derive::Derivation, p: &[f32; 4], dist: f32) -> bool {
     let x = [p[0] as f64, p[1] as f64, p[2] as f64];
@@ -90,7 +115,7 @@ fn far_from_knot_planes(d: &boxforge::derive::Derivation, p: &[f32; 4], dist: f3
 #[derive(Clone, Debug, Serialize)]
 pub struct HessianRow {
     pub filter: String,
-    /// `central differences` or `separable tricubic`.
+    /// `central differences`, or a hand-written rival of [`hand_written`].
     pub rival: String,
     pub generated_evals_per_s: f64,
     pub rival_evals_per_s: f64,
@@ -98,14 +123,20 @@ pub struct HessianRow {
     pub speedup: Ratio,
     /// max over points and packed entries of |generated - rival| / max(|generated|, 1).
     pub max_rel_diff: f64,
-    /// Points where the outputs were compared (all, or for a C^1 filter's
-    /// central differences those farther than 2h from every knot plane).
+    /// Points where the outputs were compared (all, or for a C^1 filter
+    /// those farther than 2h (central differences) or [`KNOT_GAP`] (exact
+    /// rivals) from every knot plane).
     pub compared_points: usize,
     /// Whether `max_rel_diff` is within [`agreement_tolerance`].
     pub agrees: bool,
     pub fetches_generated: usize,
     pub ops_generated: usize,
     pub hessian_form: String,
+    /// Texel loads per evaluation of a hand-written rival without loops (naga's count).
+    pub fetches_rival: Option<usize>,
+    /// Arithmetic ops per evaluation of a hand-written rival without loops
+    /// (`references::ops` on its source text, as the generated count).
+    pub ops_rival: Option<usize>,
 }
 
 /// What `bench --hessian` measured.
@@ -137,23 +168,41 @@ pub fn run(
         let dv = DeviceVolume::new(gpu, &ml, Layout::Embedded)?;
         let pts = points_in(&d, &ml, points, 9);
         let m = emit(&d, &EmitOptions { kernels: false, ..Default::default() }).map_err(BenchError::emit)?;
-        let mut rivals = vec![("central differences", central(name), "bx_central(p)")];
-        if name == "cc_tricubic" {
-            rivals.push(("separable tricubic", SEPARABLE_TRICUBIC.to_string(), "bx_separable(p)"));
+        let mut rivals = vec![("central differences", central(name), "bx_central".to_string(), false)];
+        for (rival, code, entry) in hand_written(name) {
+            rivals.push((rival, code.to_string(), entry.to_string(), true));
         }
-        for (rival, code, call) in rivals {
+        for (rival, code, entry, hand) in rivals {
+            let call = format!("{entry}(p)");
+            let (fetches_rival, ops_rival) = if hand {
+                let with = format!("{}\n{code}", m.source);
+                // Counts on the text see a loop body once: none for loops.
+                let loops = crate::references::code_only(&code).contains("for (");
+                if loops {
+                    (None, None)
+                } else {
+                    (
+                        crate::references::fetches(&with, &code, &entry),
+                        Some(crate::references::ops(&with, &code, &entry)),
+                    )
+                }
+            } else {
+                (None, None)
+            };
             progress(&format!("{name}: eval_hessian vs {rival}, {rounds} rounds"));
             let a = Job::new(gpu, &program(&m.source, &generated(name), "bx_generated(p)"), "hessian", &dv, &pts)?;
-            let b = Job::new(gpu, &program(&m.source, &code, call), rival, &dv, &pts)?;
+            let b = Job::new(gpu, &program(&m.source, &code, &call), rival, &dv, &pts)?;
             let r = timed_rounds(gpu, &[&a, &b], rounds)?;
             // The outputs of the last round (each job writes every point each run).
             let (ao, bo) = (a.outputs(gpu)?, b.outputs(gpu)?);
             // Where the Hessian jumps (C^1 filters), central differences
             // straddling a knot plane blend both sides: compare them only
-            // farther than 2h from every knot plane.
-            let jumps = d.facts.continuity < 2 && rival == "central differences";
+            // farther than 2h from every knot plane; exact rivals may pick
+            // the other side on a plane: compare them farther than KNOT_GAP.
+            let jumps = d.facts.continuity < 2;
+            let gap = if hand { KNOT_GAP } else { 2.0 * CENTRAL_STEP };
             let compared: Vec<usize> =
-                (0..pts.len()).filter(|&k| !jumps || far_from_knot_planes(&d, &pts[k], 2.0 * CENTRAL_STEP)).collect();
+                (0..pts.len()).filter(|&k| !jumps || far_from_knot_planes(&d, &pts[k], gap)).collect();
             let max_rel_diff = compared
                 .iter()
                 .flat_map(|&k| {
@@ -173,6 +222,8 @@ pub fn run(
                 fetches_generated: m.stats.fetches_per_eval,
                 ops_generated: m.stats.ops_eval_hessian.unwrap_or(0),
                 hessian_form: m.stats.hessian_form.map_or("-", |f| f.name()).into(),
+                fetches_rival,
+                ops_rival,
             });
         }
     }
@@ -186,10 +237,10 @@ pub fn markdown(r: &HessianReport, command: &str) -> String {
     let _ = writeln!(s, "Generated by `{command}` on {}.\n", r.adapter);
     let _ = writeln!(
         s,
-        "Marschner-Lobb at about 41^3 samples on each lattice, {} points in the valid box, median of {} interleaved rounds (ratio per round, min..max over rounds). Each kernel writes value, gradient and every Hessian entry folded into one vec4 with distinct weights; before timing, the rival's output is compared with the generated one (max |difference| / max(|value|, 1); central differences with h = {CENTRAL_STEP} differ by their truncation and f32 cancellation, about eps/h^2 of the data; for C^1 filters, whose Hessian jumps across knot planes, they are compared only at the points farther than 2h from every knot plane, since a difference straddling a plane blends both sides). Targets: >= 3x central differences for every filter of degree >= 2; cc_tricubic >= 1.0x the separable tricubic Hessian.\n",
+        "Marschner-Lobb at about 41^3 samples on each lattice, {} points in the valid box, median of {} interleaved rounds (ratio per round, min..max over rounds). Each kernel writes value, gradient and every Hessian entry folded into one vec4 with distinct weights; before timing, the rival's output is compared with the generated one (max |difference| / max(|value|, 1); central differences with h = {CENTRAL_STEP} differ by their truncation and f32 cancellation, about eps/h^2 of the data; for C^1 filters, whose Hessian jumps across knot planes, they are compared only at the points farther than 2h from every knot plane, since a difference straddling a plane blends both sides; exact rivals of a C^1 filter only farther than {KNOT_GAP:e}, since on a plane either side's Hessian is right and f32 rounding picks one). Targets: >= 3x central differences for every filter of degree >= 2; >= 1.0x each hand-written rival (cc_tricubic: the separable tricubic Hessian; bcc7: Kim's; cc6: Kim & Kim's). Fetches and ops of a hand-written rival are counted as the generated ones (naga's texel loads; arithmetic ops on the source text; none for code with loops).\n",
         r.points, r.rounds
     );
-    let _ = writeln!(s, "| filter | eval_hessian form (fetches, ops) | rival | generated evals/s | rival evals/s | speed-up median [min..max] | target | max rel. difference (agrees?, points compared) |");
+    let _ = writeln!(s, "| filter | eval_hessian form (fetches, ops) | rival (fetches, ops) | generated evals/s | rival evals/s | speed-up median [min..max] | target | max rel. difference (agrees?, points compared) |");
     let _ = writeln!(s, "|---|---|---|---:|---:|---|---|---|");
     for row in &r.rows {
         let want = if row.rival == "central differences" { 3.0 } else { 1.0 };
@@ -205,7 +256,7 @@ pub fn markdown(r: &HessianReport, command: &str) -> String {
             row.hessian_form,
             row.fetches_generated,
             row.ops_generated,
-            row.rival,
+            rival_cell(row),
             row.generated_evals_per_s,
             row.rival_evals_per_s,
             row.speedup.median,
@@ -219,10 +270,19 @@ pub fn markdown(r: &HessianReport, command: &str) -> String {
     }
     let _ = writeln!(
         s,
-        "\nNot measured yet: Kim 2021's hand-written bcc7 Hessian (target: generated >= 1.0x) and the six-direction cubic box spline on CC of Kim & Kim 2023 (not in the catalog yet).\n"
+        "\nHand-written rivals (runtime/references/): the separable tricubic Hessian (per-axis B-spline weights and their derivatives, as Sigg & Hadwiger 2005 build derivative filters); Kim's bcc7 (M. Kim 2013, 2017, as published in the GitHub repository cg-uos/bcc7, bcc7_raycast_curvature.frag: one quartic, three cubic and six quadratic formulas on one reference tetrahedron, 30 fetches); Kim & Kim 2023's cc6 (Graphical Models 125, as published in cg-uos/cc6, cc6_raycast_curvature.frag: three tetrahedron types, 38 fetches, value and gradient formulas of all three types weighted by the type, the Hessian's by a switch). Both Kim rivals are our WGSL of the published method (those repositories carry no licence), with the published formulas' coefficients.\n"
     );
     let _ = writeln!(s, "{SECTION_END}");
     s
+}
+
+/// The rival's table cell: its name, and fetches and ops of a hand-written one.
+fn rival_cell(row: &HessianRow) -> String {
+    match (row.fetches_rival, row.ops_rival) {
+        (Some(f), Some(o)) => format!("{} ({f}, {o})", row.rival),
+        (Some(f), None) => format!("{} ({f}, -)", row.rival),
+        _ => row.rival.clone(),
+    }
 }
 
 /// `file` with this section replaced (or appended).

@@ -14,6 +14,7 @@ mod frames;
 mod gpu_bench;
 mod gpu_verify;
 mod hessian;
+mod hessian_refs;
 mod hit;
 mod host_depth;
 mod mattausch_references;

@@ -232,7 +232,7 @@ fn hessian(a: &BenchArgs) -> Result<(), Failure> {
     } else if a.smoke {
         vec!["cc_tricubic".into()]
     } else {
-        ["cc_triquadratic", "cc_tricubic", "bcc7", "bcc8", "bcc12", "fcc6"].map(String::from).to_vec()
+        ["cc_triquadratic", "cc_tricubic", "bcc7", "bcc8", "bcc12", "fcc6", "cc6"].map(String::from).to_vec()
     };
     let (points, rounds) = if a.smoke { (4096, 1) } else { (1 << 18, a.runs.unwrap_or(7)) };
     let mut flags = format!("--hessian{}", smoke_runs(a, true));
