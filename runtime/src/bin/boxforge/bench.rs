@@ -40,8 +40,9 @@ pub struct BenchArgs {
     volumes: bool,
     /// Measure second derivatives instead: the generated eval_hessian of
     /// every filter of degree >= 2 against central differences of its
-    /// analytic gradient, and cc_tricubic's against the separable tricubic
-    /// Hessian: with --markdown, replaces only its section of the file.
+    /// analytic gradient, and against the hand-written Hessians (the
+    /// separable tricubic, Kim's bcc7, Kim & Kim's cc6): with --markdown,
+    /// replaces only its section of the file.
     #[arg(long, conflicts_with_all = ["derive", "literature", "perm", "volumes"])]
     hessian: bool,
     /// Measure curvature fidelity instead (CPU, no device): the error of
