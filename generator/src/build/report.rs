@@ -527,6 +527,7 @@ impl Report {
             ("degree", self.degree.to_string()),
             ("approximation order", self.approximation_order.to_string()),
             ("continuity", format!("C^{}", self.continuity)),
+            ("smoothness", smoothness(self.continuity, self.degree)),
             ("support volume", self.support_volume.to_string()),
             ("grid offset", v(&self.grid_offset)),
             (
@@ -630,7 +631,6 @@ impl Report {
                     st.ops_eval_hessian.map_or("-".to_string(), |n| n.to_string())
                 );
             }
-            let _ = writeln!(s, "\n{}", smoothness(self.continuity, self.degree));
             let _ = writeln!(s, "\n(ops: operators, comparisons, selects and builtin calls in the WGSL source; the naive variant's loops are counted once. The naive variant keeps the dense form: it measures branches and lookup tables.)");
             if let Some(st) = self.shaders.iter().map(|sr| &sr.stats).find(|st| st.variant.name() == "fast") {
                 let _ = writeln!(
@@ -774,6 +774,37 @@ impl Report {
 mod tests {
     use super::*;
     use crate::spec::catalog;
+
+    /// Smoothness classes derived from the direction matrices, against what
+    /// the literature states: bcc7, bcc8 (Entezari et al.), bcc12 and
+    /// cc_tricubic are C^2 (continuous Hessian); fcc6 (Kim et al. 2008), cc6
+    /// (Kim & Kim 2023), the Zwart-Powell element and the triquadratic are C^1
+    /// (the Hessian jumps); the linear and trilinear splines C^0. The
+    /// markdown report says so in words.
+    #[test]
+    fn smoothness_classes_of_known_filters() {
+        for (name, k) in [
+            ("bcc7", 2),
+            ("bcc8", 2),
+            ("bcc12", 2),
+            ("cc_tricubic", 2),
+            ("fcc6", 1),
+            ("cc6", 1),
+            ("zp", 1),
+            ("cc_triquadratic", 1),
+            ("bcc_linear", 0),
+            ("cc_trilinear", 0),
+            ("courant", 0),
+        ] {
+            let d = Derivation::new(&catalog::get(name).unwrap()).unwrap();
+            assert_eq!(d.facts.continuity, k, "{name}");
+            let md = Report::new(&d).to_markdown();
+            let line = smoothness(d.facts.continuity, d.facts.degree);
+            assert!(md.contains(&line), "{name}: the report states its smoothness");
+            assert_eq!(line.contains("Hessian are continuous"), k >= 2, "{name}: {line}");
+            assert_eq!(line.contains("Hessian jumps"), k == 1, "{name}: {line}");
+        }
+    }
 
     #[test]
     fn all_coefficients_lists_them_past_the_limit() {
