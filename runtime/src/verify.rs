@@ -192,6 +192,38 @@ pub fn gpu_eval_source(
     PointEvaluator::new(gpu, module_source, label, name, vol)?.eval(points)
 }
 
+/// Compiles `source` (a module with a [`kernel::points_kernel`] at group 1
+/// with `outputs` outputs, entry `entry`) over `vol`'s samples at group 0:
+/// the pipeline, the layout of group 1 (points, then the outputs) and the
+/// samples' bind group.
+pub(crate) fn points_pipeline(
+    gpu: &Gpu,
+    source: &str,
+    label: &str,
+    vol: &DeviceVolume,
+    outputs: u32,
+    entry: &str,
+) -> Result<(wgpu::ComputePipeline, wgpu::BindGroupLayout, wgpu::BindGroup), GpuError> {
+    let shader = gpu.compile(label, source)?;
+    let dev = &gpu.device;
+    let bgl0 = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("samples"),
+        entries: &vol.layout_entries(0, wgpu::ShaderStages::COMPUTE),
+    });
+    let io: Vec<wgpu::BindGroupLayoutEntry> =
+        std::iter::once(storage_entry(0, true)).chain((1..=outputs).map(|b| storage_entry(b, false))).collect();
+    let bgl1 = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("io"), entries: &io });
+    let pipeline = gpu.pipeline(entry, &shader, &[&bgl0, &bgl1], entry)?;
+    let bg0 = gpu.checked("bind the samples", || {
+        dev.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("samples"),
+            layout: &bgl0,
+            entries: &vol.bind_entries(0),
+        })
+    })?;
+    Ok((pipeline, bgl1, bg0))
+}
+
 /// A compiled evaluation wrapper around a module, run on any number of
 /// points (split into dispatches of [`POINTS_PER_DISPATCH`]).
 pub struct PointEvaluator<'a> {
@@ -210,24 +242,7 @@ impl<'a> PointEvaluator<'a> {
         vol: &DeviceVolume,
     ) -> Result<PointEvaluator<'a>, GpuError> {
         let source = format!("{module_source}\n{}", wrapper(name));
-        let shader = gpu.compile(label, &source)?;
-        let dev = &gpu.device;
-        let bgl0 = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("samples"),
-            entries: &vol.layout_entries(0, wgpu::ShaderStages::COMPUTE),
-        });
-        let bgl1 = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("io"),
-            entries: &[storage_entry(0, true), storage_entry(1, false), storage_entry(2, false)],
-        });
-        let pipeline = gpu.pipeline("verify", &shader, &[&bgl0, &bgl1], "verify_main")?;
-        let bg0 = gpu.checked("bind the samples", || {
-            dev.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("samples"),
-                layout: &bgl0,
-                entries: &vol.bind_entries(0),
-            })
-        })?;
+        let (pipeline, bgl1, bg0) = points_pipeline(gpu, &source, label, vol, 2, "verify_main")?;
         Ok(PointEvaluator { gpu, pipeline, bgl1, bg0 })
     }
 

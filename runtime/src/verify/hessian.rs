@@ -6,7 +6,6 @@
 //! with a looser tolerance.
 
 use super::{kernel, near_knot, Tally, POINTS_PER_DISPATCH};
-use crate::gpu::binding::storage_entry;
 use crate::gpu::{Gpu, GpuError};
 use crate::volume::{DeviceVolume, LatticeVolume};
 use boxforge::derive::Derivation;
@@ -80,24 +79,7 @@ impl<'a> HessianEvaluator<'a> {
         vol: &DeviceVolume,
     ) -> Result<HessianEvaluator<'a>, GpuError> {
         let source = format!("{module_source}\n{}", wrapper(name));
-        let shader = gpu.compile(label, &source)?;
-        let dev = &gpu.device;
-        let bgl0 = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("samples"),
-            entries: &vol.layout_entries(0, wgpu::ShaderStages::COMPUTE),
-        });
-        let bgl1 = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("io"),
-            entries: &[storage_entry(0, true), storage_entry(1, false)],
-        });
-        let pipeline = gpu.pipeline("verify hessian", &shader, &[&bgl0, &bgl1], "verify_hessian_main")?;
-        let bg0 = gpu.checked("bind the samples", || {
-            dev.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("samples"),
-                layout: &bgl0,
-                entries: &vol.bind_entries(0),
-            })
-        })?;
+        let (pipeline, bgl1, bg0) = super::points_pipeline(gpu, &source, label, vol, 1, "verify_hessian_main")?;
         Ok(HessianEvaluator { gpu, pipeline, bgl1, bg0 })
     }
 

@@ -104,6 +104,19 @@ fn curvature_frame(g: DVec3, h: DMat3) -> (f64, f64, DMat3) {
     (0.5 * (t + disc), 0.5 * (t - disc), gm)
 }
 
+/// The 2D (k1, k2) colormap at a = k1 R, b = k2 R (both in [-1, 1]): grey
+/// flat, red convex (both positive), blue concave (both negative), green
+/// saddle.
+fn k1k2_color(a: f64, b: f64) -> DVec3 {
+    let convex = b.max(0.0);
+    let concave = (-a).max(0.0);
+    let saddle = a.max(0.0).min((-b).max(0.0));
+    DVec3::splat(0.85)
+        + convex * DVec3::new(0.15, -0.55, -0.55)
+        + concave * DVec3::new(-0.55, -0.45, 0.15)
+        + saddle * DVec3::new(-0.45, 0.1, -0.45)
+}
+
 fn smoothstep(a: f64, b: f64, x: f64) -> f64 {
     let t = ((x - a) / (b - a)).clamp(0.0, 1.0);
     t * t * (3.0 - 2.0 * t)
@@ -138,16 +151,7 @@ impl Shade {
         let b = (k2 * r).clamp(-1.0, 1.0);
         let phong = DVec3::new(0.85, 0.72, 0.55);
         match self.mode {
-            ShadeMode::Phong | ShadeMode::Curvature => {
-                let convex = b.max(0.0);
-                let concave = (-a).max(0.0);
-                let saddle = a.max(0.0).min((-b).max(0.0));
-                let base = DVec3::splat(0.85)
-                    + convex * DVec3::new(0.15, -0.55, -0.55)
-                    + concave * DVec3::new(-0.55, -0.45, 0.15)
-                    + saddle * DVec3::new(-0.45, 0.1, -0.45);
-                base * light
-            }
+            ShadeMode::Phong | ShadeMode::Curvature => k1k2_color(a, b) * light,
             ShadeMode::Mean => {
                 let m = (0.5 * (k1 + k2) * r).clamp(-1.0, 1.0);
                 diverging(m, DVec3::new(0.85, 0.2, 0.15), DVec3::new(0.15, 0.3, 0.85)) * light
@@ -186,6 +190,7 @@ const {name}_SHADE_MODE: i32 = {mode};
 const {name}_SHADE_RADIUS: f32 = {radius:?};
 const {name}_SHADE_THICKNESS: f32 = {thickness:?};
 
+{core}
 fn {name}_shade_smooth(a: f32, b: f32, x: f32) -> f32 {{
     let t = clamp((x - a) / (b - a), 0.0, 1.0);
     return t * t * (3.0 - 2.0 * t);
@@ -208,14 +213,11 @@ fn {name}_curvature_shade(ph: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {{
     let l = normalize(-dir + 0.35 * up / max(length(up), 1e-20));
     let light = 0.25 + 0.75 * max(dot(ns, l), 0.0);
     let n = -g / glen;
-    let p = mat3x3<f32>(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), vec3<f32>(0.0, 0.0, 1.0))
-        - mat3x3<f32>(n * n.x, n * n.y, n * n.z);
-    let gm = (p * r.hessian * p) * (-1.0 / glen);
-    let t = gm[0][0] + gm[1][1] + gm[2][2];
-    let f2 = dot(gm[0], gm[0]) + dot(gm[1], gm[1]) + dot(gm[2], gm[2]);
-    let disc = sqrt(max(2.0 * f2 - t * t, 0.0));
-    let k1 = 0.5 * (t + disc);
-    let k2 = 0.5 * (t - disc);
+    let p = {name}_tangent_projection(n);
+    let gm = {name}_curvature_matrix(g, r.hessian);
+    let k = {name}_principal_curvatures(gm);
+    let k1 = k.x;
+    let k2 = k.y;
     let rad = {name}_SHADE_RADIUS;
     let a = clamp(k1 * rad, -1.0, 1.0);
     let b = clamp(k2 * rad, -1.0, 1.0);
@@ -244,16 +246,12 @@ fn {name}_curvature_shade(ph: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {{
             return phong * light * (1.0 - line);
         }}
         default: {{
-            let convex = max(b, 0.0);
-            let concave = max(-a, 0.0);
-            let saddle = min(max(a, 0.0), max(-b, 0.0));
-            let base = vec3<f32>(0.85) + convex * vec3<f32>(0.15, -0.55, -0.55)
-                + concave * vec3<f32>(-0.55, -0.45, 0.15) + saddle * vec3<f32>(-0.45, 0.1, -0.45);
-            return base * light;
+            return {name}_k1k2_color(a, b) * light;
         }}
     }}
 }}
 "#,
+            core = core_wgsl(name),
             mode_name = self.mode.name(),
             mode = self.mode.index(),
             radius = self.radius,
@@ -273,14 +271,7 @@ pub fn curvature_tf(g: DVec3, h: DMat3, radius: f64) -> (DVec3, f64) {
     let (k1, k2, _) = curvature_frame(g, h);
     let a = (k1 * radius).clamp(-1.0, 1.0);
     let b = (k2 * radius).clamp(-1.0, 1.0);
-    let convex = b.max(0.0);
-    let concave = (-a).max(0.0);
-    let saddle = a.max(0.0).min((-b).max(0.0));
-    let base = DVec3::splat(0.85)
-        + convex * DVec3::new(0.15, -0.55, -0.55)
-        + concave * DVec3::new(-0.55, -0.45, 0.15)
-        + saddle * DVec3::new(-0.45, 0.1, -0.45);
-    (base, 0.25 + 0.75 * a.abs().max(b.abs()))
+    (k1k2_color(a, b), 0.25 + 0.75 * a.abs().max(b.abs()))
 }
 
 /// `fn <name>_curvature_tf(g, h) -> vec4<f32>`: [`curvature_tf`] in WGSL
@@ -289,23 +280,46 @@ pub fn curvature_tf_wgsl(name: &str, radius: f32) -> String {
     format!(
         r#"
 // The curvature transfer function over (k1, k2) (Kindlmann et al. 2003), R = {radius:?} cells.
+{core}
 fn {name}_curvature_tf(g: vec3<f32>, h: mat3x3<f32>) -> vec4<f32> {{
-    let glen = max(length(g), 1e-20);
-    let n = -g / glen;
-    let p = mat3x3<f32>(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), vec3<f32>(0.0, 0.0, 1.0))
+    let k = clamp({name}_principal_curvatures({name}_curvature_matrix(g, h)) * {radius:?}, vec2<f32>(-1.0), vec2<f32>(1.0));
+    return vec4<f32>({name}_k1k2_color(k.x, k.y), 0.25 + 0.75 * max(abs(k.x), abs(k.y)));
+}}
+"#,
+        core = core_wgsl(name)
+    )
+}
+
+/// The WGSL both curvature shaders share ([`curvature_frame`] and
+/// [`k1k2_color`] in f32): the tangent-plane projection, G = -P H P / |g|,
+/// its principal curvatures and the (k1, k2) colormap.
+fn core_wgsl(name: &str) -> String {
+    format!(
+        r#"
+fn {name}_tangent_projection(n: vec3<f32>) -> mat3x3<f32> {{
+    return mat3x3<f32>(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), vec3<f32>(0.0, 0.0, 1.0))
         - mat3x3<f32>(n * n.x, n * n.y, n * n.z);
-    let gm = (p * h * p) * (-1.0 / glen);
+}}
+
+fn {name}_curvature_matrix(g: vec3<f32>, h: mat3x3<f32>) -> mat3x3<f32> {{
+    let glen = max(length(g), 1e-20);
+    let p = {name}_tangent_projection(-g / glen);
+    return (p * h * p) * (-1.0 / glen);
+}}
+
+fn {name}_principal_curvatures(gm: mat3x3<f32>) -> vec2<f32> {{
     let t = gm[0][0] + gm[1][1] + gm[2][2];
     let f2 = dot(gm[0], gm[0]) + dot(gm[1], gm[1]) + dot(gm[2], gm[2]);
     let disc = sqrt(max(2.0 * f2 - t * t, 0.0));
-    let a = clamp(0.5 * (t + disc) * {radius:?}, -1.0, 1.0);
-    let b = clamp(0.5 * (t - disc) * {radius:?}, -1.0, 1.0);
+    return vec2<f32>(0.5 * (t + disc), 0.5 * (t - disc));
+}}
+
+fn {name}_k1k2_color(a: f32, b: f32) -> vec3<f32> {{
     let convex = max(b, 0.0);
     let concave = max(-a, 0.0);
     let saddle = min(max(a, 0.0), max(-b, 0.0));
-    let base = vec3<f32>(0.85) + convex * vec3<f32>(0.15, -0.55, -0.55)
+    return vec3<f32>(0.85) + convex * vec3<f32>(0.15, -0.55, -0.55)
         + concave * vec3<f32>(-0.55, -0.45, 0.15) + saddle * vec3<f32>(-0.45, 0.1, -0.45);
-    return vec4<f32>(base, 0.25 + 0.75 * max(abs(a), abs(b)));
 }}
 "#
     )
@@ -352,6 +366,12 @@ mod tests {
             let r = boxforge::validate::validate_wgsl(&src, "curvature");
             assert!(r.valid, "{mode:?}: {:?}", r.error);
         }
+        let tf = format!(
+            "fn f_shade(g: vec3<f32>, h: mat3x3<f32>) -> vec4<f32> {{ return f_curvature_tf(g, h); }}\n{}",
+            curvature_tf_wgsl("f", 3.0)
+        );
+        let r = boxforge::validate::validate_wgsl(&tf, "curvature tf");
+        assert!(r.valid, "tf: {:?}", r.error);
         assert_eq!(ShadeMode::parse("ridges"), Some(ShadeMode::Ridges));
         assert_eq!(ShadeMode::parse("nope"), None);
     }
