@@ -27,6 +27,13 @@ pub trait BrickSource: Sync {
     /// Bytes of host memory the source holds beyond what the OS maps (for
     /// the memory bound the out-of-core renderer states).
     fn resident_bytes(&self) -> usize;
+
+    /// A text that changes whenever the samples may have changed (a file's
+    /// path, length and modification time, and how it is read), for caches
+    /// of what is derived from the samples; None: not cacheable.
+    fn identity(&self) -> Option<String> {
+        None
+    }
 }
 
 impl BrickSource for LatticeVolume {

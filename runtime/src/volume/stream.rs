@@ -639,6 +639,26 @@ impl BrickSource for MappedVolume {
         self.dims
     }
 
+    /// The mapped file (canonical path, length, modification time) and
+    /// how its bytes are read (offset, dims, type, byte order, NIfTI
+    /// scaling, lattice).
+    fn identity(&self) -> Option<String> {
+        let path = std::fs::canonicalize(&self.path).ok()?;
+        let modified = self.file.metadata().ok()?.modified().ok()?;
+        let nanos = modified.duration_since(std::time::UNIX_EPOCH).ok()?.as_nanos();
+        Some(format!(
+            "{}|{}|{nanos}|{}|{:?}|{:?}|{}|{:?}|{}",
+            path.display(),
+            self.len,
+            self.offset,
+            self.dims,
+            self.ty,
+            self.big_endian,
+            self.scale,
+            self.lattice.name
+        ))
+    }
+
     fn lattice(&self) -> &Lattice {
         &self.lattice
     }

@@ -47,6 +47,7 @@ fn both(
         budget: 1 << 30,
         max_pixels: (o.width * o.height) as u64,
         max_pool_edge: Some(slots * slot),
+        bounds_cache: None,
     };
     let mut r = PagedIsoRenderer::new(gpu, d, vol, options, &|_, _| {}).unwrap();
     let (frame, stats) = r.render(vol, o).unwrap();
@@ -132,6 +133,7 @@ fn a_memory_mapped_file_renders_out_of_core_as_the_loaded_volume_in_core() {
         }
     }
     let path = std::env::temp_dir().join(format!("boxforge-paged-{}.raw", std::process::id()));
+    let cache = std::env::temp_dir().join(format!("boxforge-paged-bounds-{}", std::process::id()));
     std::fs::write(&path, &bytes).unwrap();
     let ty = boxforge_runtime::volume::RawType::U8;
     let mapped = boxforge_runtime::volume::MappedVolume::open_raw(&path, dims, ty, &d.filter.lattice).unwrap();
@@ -150,11 +152,30 @@ fn a_memory_mapped_file_renders_out_of_core_as_the_loaded_volume_in_core() {
         budget: 1 << 30,
         max_pixels: 1600,
         max_pool_edge: Some(3 * slot),
+        bounds_cache: Some(cache.clone()),
     };
-    let mut r = PagedIsoRenderer::new(gpu, &d, &mapped, options, &|_, _| {}).unwrap();
+    let mut r = PagedIsoRenderer::new(gpu, &d, &mapped, options.clone(), &|_, _| {}).unwrap();
+    assert!(!r.bounds_cached(), "the first render computes the bounds");
     let (frame, stats) = r.render(&mapped, &o).unwrap();
-    let _ = std::fs::remove_file(&path);
     let (flips, rms) = compare(&in_core.rgba, &frame.rgba);
     assert!(stats.passes > 2, "{stats:?}");
     assert!(flips == 0 && rms < 0.5, "mapped paged image differs ({flips} flips, RMS {rms:.3}/255, {stats:?})");
+    // The second render of the same file reads the bounds from the cache: same image.
+    let mut again = PagedIsoRenderer::new(gpu, &d, &mapped, options.clone(), &|_, _| {}).unwrap();
+    assert!(again.bounds_cached(), "the second render reads the cached bounds");
+    let (frame2, _) = again.render(&mapped, &o).unwrap();
+    assert_eq!(frame2.rgba, frame.rgba);
+    // Another storage (u8 samples) is another entry: computed again.
+    let u8_options = PagedOptions { format: SampleFormat::U8, ..options.clone() };
+    assert!(!PagedIsoRenderer::new(gpu, &d, &mapped, u8_options, &|_, _| {}).unwrap().bounds_cached());
+    // A file changed in place (same length) is another source: its bounds are computed again.
+    drop((r, again, mapped));
+    std::thread::sleep(std::time::Duration::from_millis(20));
+    bytes.iter_mut().for_each(|b| *b = 255 - *b);
+    std::fs::write(&path, &bytes).unwrap();
+    let changed = boxforge_runtime::volume::MappedVolume::open_raw(&path, dims, ty, &d.filter.lattice).unwrap();
+    assert!(!PagedIsoRenderer::new(gpu, &d, &changed, options, &|_, _| {}).unwrap().bounds_cached());
+    drop(changed);
+    let _ = std::fs::remove_file(&path);
+    let _ = std::fs::remove_dir_all(&cache);
 }

@@ -332,7 +332,7 @@ fn volumes(a: &BenchArgs) -> Result<(), Failure> {
         let mut cmd = std::process::Command::new(&exe);
         cmd.args(["render", "--filter", filter, "--volume", volume, "--format", "u8", "--iso", iso, "--size"])
             .arg(size.to_string())
-            .args(["--gpu-budget", &budget.to_string(), "--stats-json", "--out"])
+            .args(["--gpu-budget", &budget.to_string(), "--stats-json", "--no-bounds-cache", "--out"])
             .arg(&out_png);
         if let Some(r) = raw {
             cmd.args(["--raw", &r]);

@@ -186,3 +186,80 @@ pub fn brick_row_bounds(
     gpu.wait()?;
     Ok(bounds)
 }
+
+/// The block bounds of one source, filter and storage kept in a file
+/// (`<dir>/bounds-<FNV-1a of the key>.bin`): a header line with the whole
+/// key (so a hash collision reads as a miss), the block count, then (min,
+/// max) as little-endian f32 pairs. Written atomically.
+pub struct BoundsCache {
+    path: std::path::PathBuf,
+    key: String,
+}
+
+const BOUNDS_MAGIC: &str = "boxforge block bounds 1";
+
+impl BoundsCache {
+    /// The cache entry for `key` in `dir`.
+    pub fn new(dir: &std::path::Path, key: String) -> BoundsCache {
+        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+        for b in key.bytes() {
+            h = (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3);
+        }
+        BoundsCache { path: dir.join(format!("bounds-{h:016x}.bin")), key }
+    }
+
+    /// The file it reads and writes.
+    pub fn path(&self) -> &std::path::Path {
+        &self.path
+    }
+
+    /// The cached bounds, when the file exists, holds this key and exactly
+    /// `blocks` finite pairs; None otherwise (a miss: compute them).
+    pub fn read(&self, blocks: usize) -> Option<Vec<[f32; 2]>> {
+        let bytes = std::fs::read(&self.path).ok()?;
+        let header = format!("{BOUNDS_MAGIC}\n{}\n{blocks}\n", self.key);
+        let body = bytes.strip_prefix(header.as_bytes())?;
+        if body.len() != blocks * 8 {
+            return None;
+        }
+        let pairs: Vec<[f32; 2]> = body
+            .chunks_exact(8)
+            .map(|c| {
+                let f = |i: usize| f32::from_le_bytes([c[i], c[i + 1], c[i + 2], c[i + 3]]);
+                [f(0), f(4)]
+            })
+            .collect();
+        pairs.iter().all(|p| p[0].is_finite() && p[1].is_finite() && p[0] <= p[1]).then_some(pairs)
+    }
+
+    /// Keeps `bounds` for the next render (creating the folder).
+    pub fn write(&self, bounds: &[[f32; 2]]) -> std::io::Result<()> {
+        if let Some(dir) = self.path.parent() {
+            std::fs::create_dir_all(dir)?;
+        }
+        let mut bytes = format!("{BOUNDS_MAGIC}\n{}\n{}\n", self.key, bounds.len()).into_bytes();
+        for b in bounds {
+            bytes.extend_from_slice(&b[0].to_le_bytes());
+            bytes.extend_from_slice(&b[1].to_le_bytes());
+        }
+        boxforge::build::output::write_atomic(&self.path, &bytes).map_err(|e| std::io::Error::other(e.to_string()))
+    }
+}
+
+#[cfg(test)]
+mod cache_tests {
+    use super::*;
+
+    #[test]
+    fn bounds_round_trip_and_other_keys_or_counts_miss() {
+        let dir = std::env::temp_dir().join(format!("boxforge-bounds-cache-{}", std::process::id()));
+        let c = BoundsCache::new(&dir, "a file|bcc7|f32".into());
+        assert!(c.read(3).is_none(), "nothing cached yet");
+        let b = vec![[0.0, 1.0], [-2.5, 3.0], [0.25, 0.25]];
+        c.write(&b).unwrap();
+        assert_eq!(c.read(3), Some(b));
+        assert!(c.read(4).is_none(), "another block count is a miss");
+        assert!(BoundsCache::new(&dir, "a file|fcc6|f32".into()).read(3).is_none(), "another key is a miss");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}

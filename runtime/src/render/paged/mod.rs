@@ -29,7 +29,7 @@ use boxforge::emit::{emit, EmitOptions, Layout};
 use cache::{requested_bricks, BrickCache};
 
 /// What an out-of-core isosurface needs besides the camera.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct PagedOptions {
     /// The iso-value.
     pub iso: f32,
@@ -49,6 +49,11 @@ pub struct PagedOptions {
     /// Cap on the pool texture's edge (None: the adapter's limit); tests
     /// force small pools with it.
     pub max_pool_edge: Option<usize>,
+    /// A folder where the block bounds of a source with an
+    /// [`identity`](BrickSource::identity) are kept (`bounds-<key>.bin`), so a
+    /// second render of the same file, filter and storage skips the pass
+    /// over the whole volume (minutes at 1024^3); None: always computed.
+    pub bounds_cache: Option<std::path::PathBuf>,
 }
 
 impl Default for PagedOptions {
@@ -61,6 +66,7 @@ impl Default for PagedOptions {
             format: SampleFormat::F32,
             budget: 1 << 30,
             max_pixels: 512 * 512,
+            bounds_cache: None,
             max_pool_edge: None,
         }
     }
@@ -109,6 +115,8 @@ pub struct PagedIsoRenderer {
     pool_bytes: u64,
     occupied_bricks: usize,
     empty_blocks: f64,
+    /// Whether the block bounds came from [`PagedOptions::bounds_cache`].
+    bounds_cached: bool,
     /// Passes rendered so far, over all frames (the cache's clock).
     pass_stamp: u64,
 }
@@ -223,7 +231,35 @@ impl PagedIsoRenderer {
         // on lavapipe, which keeps about 1.3 MB per dispatch of bcc7's
         // min/max kernel (measured: 64 dispatches +83 MB, 256 +330 MB).
         let max_texels = ((options.budget / 4) as usize / format.bytes()).max(slot * slot * slot * 4);
-        let bounds = bounds::brick_row_bounds(gpu, d, source, format, map, shape.edge, block, max_texels, progress)?;
+        let cache_file = options.bounds_cache.as_deref().and_then(|dir| {
+            let key = format!(
+                "{}|{}|{:?}|{}|{:?}|{:?}|{}|{}|{}",
+                source.identity()?,
+                d.filter.name,
+                d.facts.directions,
+                d.filter.lattice.name,
+                format,
+                map,
+                shape.edge,
+                shape.halo,
+                block
+            );
+            Some(bounds::BoundsCache::new(dir, key))
+        });
+        let cached = cache_file.as_ref().and_then(|c| c.read(nblocks));
+        let bounds_cached = cached.is_some();
+        let bounds = match cached {
+            Some(b) => b,
+            None => {
+                let b = bounds::brick_row_bounds(gpu, d, source, format, map, shape.edge, block, max_texels, progress)?;
+                if let Some(c) = &cache_file {
+                    if let Err(e) = c.write(&b) {
+                        eprintln!("note: the block bounds were not cached ({e}); the next render computes them again");
+                    }
+                }
+                b
+            }
+        };
 
         mem("bounds");
         let iso = options.iso;
@@ -336,6 +372,7 @@ impl PagedIsoRenderer {
             pool_bytes,
             occupied_bricks,
             empty_blocks,
+            bounds_cached,
             pass_stamp: 0,
         };
         renderer.write_pages();
@@ -344,6 +381,12 @@ impl PagedIsoRenderer {
     }
 
     /// The filter this renderer evaluates.
+    /// Whether the block bounds were read from the bounds cache (not
+    /// computed by a pass over the source).
+    pub fn bounds_cached(&self) -> bool {
+        self.bounds_cached
+    }
+
     pub fn filter_name(&self) -> &str {
         &self.name
     }

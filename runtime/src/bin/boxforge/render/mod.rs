@@ -130,6 +130,11 @@ pub struct RenderArgs {
     /// `bench --volumes` reads).
     #[arg(long, requires = "gpu_budget", hide = true)]
     stats_json: bool,
+    /// With --gpu-budget: compute the block bounds again instead of reading
+    /// them from the cache folder (where a render of the same file, filter
+    /// and storage keeps them).
+    #[arg(long, requires = "gpu_budget")]
+    no_bounds_cache: bool,
     #[arg(long)]
     adapter: Option<String>,
     #[arg(long, default_value = "out.png")]
@@ -366,6 +371,7 @@ pub fn run(a: RenderArgs) -> Result<(), Failure> {
             format: a.format.into(),
             budget,
             max_pixels: size as u64 * size as u64,
+            bounds_cache: (!a.no_bounds_cache).then(boxforge_runtime::volume::default_cache_dir),
             ..Default::default()
         };
         let camera = RenderOptions {

@@ -55,8 +55,15 @@ pub fn render(
             eprintln!("bounding blocks: {done}/{total} brick rows ({pct}%)");
         }
     };
+    let budget = options.budget;
     let mut r = PagedIsoRenderer::new(gpu, d, source, options, &progress).map_err(|e| Failure(e.to_string()))?;
     let preprocess_ms = started.elapsed().as_secs_f64() * 1e3;
+    if r.bounds_cached() {
+        eprintln!(
+            "block bounds read from the cache in {} (--no-bounds-cache computes them again)",
+            boxforge_runtime::volume::default_cache_dir().display()
+        );
+    }
 
     let (frame, stats) = r.render(source, camera).map_err(|e| Failure(e.to_string()))?;
     let host = boxforge_runtime::memory::peak_resident_bytes().map_or("unknown".into(), human);
@@ -75,12 +82,13 @@ pub fn render(
         stats.occupied_bricks,
         stats.bricks,
         human(stats.device_bytes),
-        human(options.budget),
+        human(budget),
     );
     if stats_json {
         let (_, warm) = r.render(source, camera).map_err(|e| Failure(e.to_string()))?;
         let json = serde_json::json!({
             "preprocess_ms": preprocess_ms,
+            "bounds_cached": r.bounds_cached(),
             "first": stats,
             "warm": warm,
             "host_peak_bytes": boxforge_runtime::memory::peak_resident_bytes(),
