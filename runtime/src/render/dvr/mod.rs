@@ -152,6 +152,14 @@ pub(crate) fn dvr_template_with(name: &str, lookup: bool, host_depth: bool) -> S
     dvr_template_curvature(name, lookup, host_depth, None)
 }
 
+/// Refuses the curvature transfer function where it cannot be: a filter
+/// without `<f>_eval_hessian` (degree 1), a radius not finite and > 0.
+pub(crate) fn check_curvature_tf(d: &Derivation, radius: f32) -> Result<(), GpuError> {
+    let shade =
+        crate::render::iso::Shade { mode: crate::render::iso::ShadeMode::Curvature, radius, ..Default::default() };
+    crate::render::iso::check_shade(d, &shade)
+}
+
 /// [`dvr_template_with`] with the curvature transfer function of radius
 /// `curvature` (cells): samples from `<f>_eval_hessian`, coloured by (k1, k2).
 pub(crate) fn dvr_template_curvature(name: &str, lookup: bool, host_depth: bool, curvature: Option<f32>) -> String {

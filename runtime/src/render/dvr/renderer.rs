@@ -91,12 +91,7 @@ impl DvrRenderer {
         volume.check_filter(d)?;
         let module = filter_module_with(d, &volume.emit_options(super::DVR_COMMAND))?;
         if let Some(radius) = look.curvature {
-            let shade = crate::render::iso::Shade {
-                mode: crate::render::iso::ShadeMode::Curvature,
-                radius,
-                ..Default::default()
-            };
-            crate::render::iso::check_shade(d, &shade)?;
+            super::check_curvature_tf(d, radius)?;
         }
         let source = format!("{}\n{}", module, super::dvr_template_curvature(name, false, true, look.curvature));
         let shader = gpu.compile(&format!("{name}.dvr.wgsl"), &source)?;

@@ -1,6 +1,6 @@
 //! A volume on the device ready for DVR, and its ray caster.
 
-use super::{dvr_params, empty_flags, shader_source_with, skip_distances, widen_bounds, DvrOptions, DvrParams};
+use super::{dvr_params, empty_flags, skip_distances, widen_bounds, DvrOptions, DvrParams};
 use crate::gpu::binding::{storage_entry, uniform_entry};
 use crate::gpu::{Gpu, GpuError};
 use crate::render::blocks::block_bounds;
@@ -52,11 +52,7 @@ impl<'a> DvrScene<'a> {
         block: i32,
         volume: &VolumeOptions,
     ) -> Result<DvrScene<'a>, GpuError> {
-        let name = &d.filter.name;
-        let dv = DeviceVolume::with_options(gpu, vol, layout, volume)?;
-        dv.check_filter(d)?;
-        let source = shader_source_with(d, &dv.emit_options(super::DVR_COMMAND), false)?;
-        Self::with_device_volume(gpu, d, vol, dv, block, Custom { name, source: &source, minmax: name, reach: 0 })
+        Self::with_curvature(gpu, d, vol, layout, block, volume, None)
     }
 
     /// [`DvrScene::with_volume`] with the curvature transfer function of
@@ -71,12 +67,9 @@ impl<'a> DvrScene<'a> {
         volume: &VolumeOptions,
         curvature: Option<f32>,
     ) -> Result<DvrScene<'a>, GpuError> {
-        let Some(radius) = curvature else {
-            return Self::with_volume(gpu, d, vol, layout, block, volume);
-        };
-        let shade =
-            crate::render::iso::Shade { mode: crate::render::iso::ShadeMode::Curvature, radius, ..Default::default() };
-        crate::render::iso::check_shade(d, &shade)?;
+        if let Some(radius) = curvature {
+            super::check_curvature_tf(d, radius)?;
+        }
         let name = &d.filter.name;
         let dv = DeviceVolume::with_options(gpu, vol, layout, volume)?;
         dv.check_filter(d)?;

@@ -289,16 +289,7 @@ pub fn render_with_depth(
         other => GpuError::Runtime(other.to_string()),
     };
     let dv = DeviceVolume::with_options(gpu, vol, layout, &o.volume)?;
-    let options = renderer::IsoOptions {
-        iso: o.iso,
-        step: o.step,
-        block: o.block,
-        skip: o.skip,
-        skip_map: o.skip_map,
-        hit: o.hit,
-        shade: o.shade,
-    };
-    let mut iso = renderer::IsoRenderer::new(gpu, d, &dv, options).map_err(as_gpu)?;
+    let mut iso = renderer::IsoRenderer::new(gpu, d, &dv, renderer::IsoOptions::from(o)).map_err(as_gpu)?;
     iso.timed_frames(o).map_err(as_gpu)
 }
 

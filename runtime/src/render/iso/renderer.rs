@@ -42,7 +42,13 @@ pub struct IsoOptions {
 
 impl Default for IsoOptions {
     fn default() -> Self {
-        let o = RenderOptions::default();
+        IsoOptions::from(&RenderOptions::default())
+    }
+}
+
+impl From<&RenderOptions> for IsoOptions {
+    /// The look of a one-shot render's options (what stays fixed over frames).
+    fn from(o: &RenderOptions) -> IsoOptions {
         IsoOptions {
             iso: o.iso,
             step: o.step,

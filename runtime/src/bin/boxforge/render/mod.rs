@@ -258,42 +258,32 @@ pub fn run(a: RenderArgs) -> Result<(), Failure> {
     };
     let layout = Layout::from(a.layout);
     let shade = Shade { mode: a.shade.into(), radius: a.curvature_radius, thickness: a.contour_thickness };
-    if a.tf_curvature {
-        let other = if dvr.is_none() {
-            Some("isosurfaces (add --mode dvr, or use --shade curvature)")
-        } else if perm.is_some() {
-            Some("--cache perm")
-        } else if pt {
-            Some("--renderer pt")
-        } else if Scheme::parse(&a.filter).is_some() {
-            Some("a hand-written scheme")
-        } else {
-            None
-        };
-        if let Some(other) = other {
-            return Err(Failure(format!(
-                "--tf-curvature is a transfer function of the DVR ray caster, not of {other}: drop one of them"
-            )));
-        }
-    }
+    // Curvature comes from eval_hessian in the ray casters only.
+    let other_renderer = if perm.is_some() {
+        Some("--cache perm")
+    } else if pt {
+        Some("--renderer pt")
+    } else if a.gpu_budget.is_some() {
+        Some("--gpu-budget")
+    } else if Scheme::parse(&a.filter).is_some() {
+        Some("a hand-written scheme")
+    } else {
+        None
+    };
     if shade.mode.needs_hessian() {
-        let other = if dvr.is_some() {
-            Some("--mode dvr")
-        } else if perm.is_some() {
-            Some("--cache perm")
-        } else if pt {
-            Some("--renderer pt")
-        } else if a.gpu_budget.is_some() {
-            Some("--gpu-budget")
-        } else if Scheme::parse(&a.filter).is_some() {
-            Some("a hand-written scheme")
-        } else {
-            None
-        };
-        if let Some(other) = other {
+        if let Some(other) = if dvr.is_some() { Some("--mode dvr") } else { other_renderer } {
             return Err(Failure(format!(
                 "--shade {} colours the isosurfaces of the ray caster, not {other}: drop one of them",
                 shade.mode.name()
+            )));
+        }
+    }
+    if a.tf_curvature {
+        let other =
+            if dvr.is_none() { Some("isosurfaces (add --mode dvr, or use --shade curvature)") } else { other_renderer };
+        if let Some(other) = other {
+            return Err(Failure(format!(
+                "--tf-curvature is a transfer function of the DVR ray caster, not of {other}: drop one of them"
             )));
         }
     }
