@@ -26,7 +26,7 @@ pub mod stats;
 mod compare;
 mod error;
 mod job;
-mod markdown;
+pub mod markdown;
 mod options;
 mod quality;
 mod rows;

@@ -180,7 +180,8 @@ pub fn markdown(r: &VolumesReport, command: &str) -> String {
     if !r.out_of_core.is_empty() {
         let _ = writeln!(
             s,
-            "**Out of core** (`render --gpu-budget`, each row its own process reading the u8 file through a memory map; 256x256 frames): the first frame starts with an empty pool, the warm frame follows it. Peak host memory is the process's VmHWM; on lavapipe device memory is host memory, so it holds the pool too. Fixed overhead: VmHWM of the same command on `ml:8` (driver, shader compiler, buffers).\n"
+            "**Out of core** (`render --gpu-budget`, each row its own process reading the u8 file through a memory map; {}x{} frames): the first frame starts with an empty pool, the warm frame follows it. Peak host memory is the process's VmHWM; on lavapipe device memory is host memory, so it holds the pool too (on a GPU it does not). Fixed overhead: VmHWM of the same command on `ml:8` (driver, shader compiler, buffers).\n",
+            r.size, r.size
         );
         let _ = writeln!(s, "| filter | volume | budget | bounds (s) | first frame ms (passes, bricks uploaded) | warm frame ms (passes, uploads) | slots | bricks holding surface / all | device | peak host | fixed overhead | host - overhead vs budget |");
         let _ = writeln!(s, "|---|---|---:|---:|---|---|---:|---|---:|---:|---:|---|");
@@ -216,7 +217,10 @@ pub fn markdown(r: &VolumesReport, command: &str) -> String {
         let _ = writeln!(s);
         let _ = writeln!(
             s,
-            "**Past one device, on paper** (sort-last, as IceT composites): cut the brick grid into N boxes, one per GPU (each with the halo bricks of its neighbours, 2h/B of a brick more per face), let each GPU render the rays' segments through its box out of core as above, and composite: for isosurfaces the nearest hit per pixel (colour + f32 depth, 8 bytes a pixel), for DVR the partial images in visibility order. Binary-swap compositing moves about 8 W H bytes per GPU per frame in log2 N rounds, 0.5 MiB at 256x256, small beside the bricks each GPU uploads. What the single-device rows imply:\n"
+            "**Past one device, on paper** (sort-last, as IceT composites): cut the brick grid into N boxes, one per GPU (each with the halo bricks of its neighbours, 2h/B of a brick more per face), let each GPU render the rays' segments through its box out of core as above, and composite: for isosurfaces the nearest hit per pixel (colour + f32 depth, 8 bytes a pixel), for DVR the partial images in visibility order. Binary-swap compositing moves about 8 W H bytes per GPU per frame in log2 N rounds, {:.1} MiB at {}x{}, small beside the bricks each GPU uploads. What the single-device rows imply:\n",
+            8.0 * f64::from(r.size) * f64::from(r.size) / f64::from(1u32 << 20),
+            r.size,
+            r.size
         );
         for row in &r.out_of_core {
             let st = &row.stats;

@@ -284,7 +284,15 @@ fn curvature(a: &BenchArgs) -> Result<(), Failure> {
 /// `--volumes`: bricks, compact formats and out-of-core frames.
 fn volumes(a: &BenchArgs) -> Result<(), Failure> {
     let gpu = open_gpu(a.adapter.as_deref())?;
-    let (edge, size, rounds) = if a.smoke { (32, 64, 1) } else { (128, 256, a.runs.unwrap_or(5)) };
+    // A frame on a real GPU must outlast its submission and wait (~0.1 ms),
+    // and the f32 volume must outgrow the caches for the formats to differ:
+    // there the in-core volume is 256^3 (64 MiB in f32) and the frame 1024^2.
+    let on_cpu = gpu.info.device_type == wgpu::DeviceType::Cpu;
+    let (edge, size, rounds) = match (a.smoke, on_cpu) {
+        (true, _) => (32, 64, 1),
+        (false, true) => (128, 256, a.runs.unwrap_or(5)),
+        (false, false) => (256, 1024, a.runs.unwrap_or(9)),
+    };
     let large = a.large_edge.unwrap_or(if a.smoke { 64 } else { 1024 });
     let mut flags = format!("--volumes{}", smoke_runs(a, true));
     if a.large_edge.is_some() {
@@ -434,7 +442,7 @@ fn main_report(a: BenchArgs) -> Result<(), Failure> {
     if let Some(m) = &markdown {
         cmd.push_str(&format!(" --markdown {}", m.display()));
     }
-    // Keep the sections of the other modes (`bench --derive`, `--literature`, `--perm`) of an existing file.
+    // Keep the sections of the other modes (`bench --derive`, `--literature`, `--perm`, ...) and the GPU record of an existing file.
     let old = markdown.as_ref().and_then(|m| std::fs::read_to_string(m).ok()).unwrap_or_default();
     let write_markdown = |report: &bench::BenchReport| -> Result<(), Failure> {
         if let Some(m) = &markdown {
@@ -446,6 +454,7 @@ fn main_report(a: BenchArgs) -> Result<(), Failure> {
                 bench::volumes::existing_section(&old),
                 bench::hessian::existing_section(&old),
                 bench::curvature::existing_section(&old),
+                bench::markdown::gpu_record_section(&old),
             ];
             for section in kept.into_iter().flatten() {
                 text = format!("{}\n\n{section}\n", text.trim_end());
