@@ -262,13 +262,24 @@ impl PagedIsoRenderer {
         };
 
         mem("bounds");
-        let iso = options.iso;
-        let empty: Vec<u32> = bounds.iter().map(|b| (iso < b[0] || iso > b[1]) as u32).collect();
-        let empty_blocks = empty.iter().filter(|&&e| e != 0).count() as f64 / empty.len().max(1) as f64;
-        let grid = blocks::blocks_per_axis(dims, options.block);
-        let occupied_bricks = occupied(&empty, grid, bricks, shape.edge / block);
-        let (distances, _) = blocks::skip_map(&empty, grid, 0, SkipMap::Distance);
-        let blocks_buf = blocks::upload(gpu, "paged blocks", &blocks::bounds_with_distances(&bounds, &distances));
+        // The block tables are only needed until their device copy exists:
+        // drop them here and hand their memory back before the pool fills.
+        let (blocks_buf, empty_blocks, occupied_bricks) = {
+            let iso = options.iso;
+            let empty: Vec<u32> = bounds.iter().map(|b| (iso < b[0] || iso > b[1]) as u32).collect();
+            let empty_blocks = empty.iter().filter(|&&e| e != 0).count() as f64 / empty.len().max(1) as f64;
+            let grid = blocks::blocks_per_axis(dims, options.block);
+            let occupied_bricks = occupied(&empty, grid, bricks, shape.edge / block);
+            let (distances, _) = blocks::skip_map(&empty, grid, 0, SkipMap::Distance);
+            drop(empty);
+            let table = blocks::bounds_with_distances(&bounds, &distances);
+            drop((bounds, distances));
+            let buf = blocks::upload(gpu, "paged blocks", &table);
+            (buf, empty_blocks, occupied_bricks)
+        };
+        gpu.queue.submit([]);
+        gpu.wait()?;
+        crate::memory::release_free_heap();
 
         mem("skip map");
         let module = EmitOptions {
@@ -536,6 +547,8 @@ impl PagedIsoRenderer {
                 }
             }
             self.write_pages();
+            // Staging and readback memory of this pass, freed, goes back.
+            crate::memory::release_free_heap();
         }
         let words: Vec<u32> = bytemuck::cast_slice(&gpu.read_buffer(&image)?).to_vec();
         let rgba = bytemuck::cast_slice(&words).to_vec();
