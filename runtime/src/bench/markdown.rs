@@ -211,6 +211,17 @@ pub fn markdown(r: &BenchReport, command: &str) -> String {
     s
 }
 
+/// Marks the hand-kept record of runs on lent GPUs in BENCHMARKS.md (the
+/// main report keeps it, as it keeps the other modes' sections).
+pub const GPU_RECORD_START: &str = "<!-- gpu-record:start -->";
+/// Marks the end of that record.
+pub const GPU_RECORD_END: &str = "<!-- gpu-record:end -->";
+
+/// The GPU record of an existing BENCHMARKS.md, if any.
+pub fn gpu_record_section(file: &str) -> Option<&str> {
+    super::derive::section_between(file, GPU_RECORD_START, GPU_RECORD_END)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -228,15 +239,4 @@ mod tests {
         assert!(last.ends_with("|\n") && !last.contains("old"), "{last}");
         assert!(splice_references("# B\n", &section).contains("# B\n\n## Generated"));
     }
-}
-
-/// Marks the hand-kept record of runs on lent GPUs in BENCHMARKS.md (the
-/// main report keeps it, as it keeps the other modes' sections).
-pub const GPU_RECORD_START: &str = "<!-- gpu-record:start -->";
-/// Marks the end of that record.
-pub const GPU_RECORD_END: &str = "<!-- gpu-record:end -->";
-
-/// The GPU record of an existing BENCHMARKS.md, if any.
-pub fn gpu_record_section(file: &str) -> Option<&str> {
-    super::derive::section_between(file, GPU_RECORD_START, GPU_RECORD_END)
 }
