@@ -133,7 +133,7 @@ fn cases(dir: &Path) -> Vec<(Vec<String>, &'static str)> {
         (render(&["--format", "u9"]), "u9"),
         (render(&["--gpu-budget", "12parsecs"]), "--gpu-budget 12parsecs"),
         (render(&["--gpu-budget", "64MiB", "--hit", "exact"]), "--hit step"),
-        (render(&["--gpu-budget", "64MiB", "--mode", "dvr", "--tf", "marschner-lobb"]), "out of core"),
+        (render(&["--gpu-budget", "64MiB", "--mode", "dvr", "--cache", "perm"]), "out of core"),
         (render(&["--gpu-budget", "64MiB", "--resample"]), "--resample"),
         (volume(p("small.raw"), &["--raw", "10,10,u8"]), "raw volume spec"),
         (volume(p("small.raw"), &["--raw", "10,10,1,f64"]), "f64"),

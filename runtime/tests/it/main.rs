@@ -19,6 +19,7 @@ mod hit;
 mod host_depth;
 mod mattausch_references;
 mod paged;
+mod paged_dvr;
 mod perm;
 mod prefilter;
 mod pt;

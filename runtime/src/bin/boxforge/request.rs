@@ -352,10 +352,11 @@ pub fn parse_budget(text: &str) -> Result<u64, String> {
     }
 }
 
-/// The renderers `--gpu-budget` works with: isosurfaces by fixed steps.
-pub fn check_paged(tf: bool, exact: bool, layout: Layout, other_renderer: bool) -> Result<(), String> {
-    if tf || other_renderer {
-        return Err("--gpu-budget renders isosurfaces out of core (the ray caster by fixed steps); out-of-core DVR, PERM, schemes and --renderer pt are not offered: drop --gpu-budget or --tf/--cache/--renderer".into());
+/// The renderers `--gpu-budget` works with: the ray caster's isosurfaces
+/// (by fixed steps) and its volume renderings.
+pub fn check_paged(exact: bool, layout: Layout, other_renderer: bool) -> Result<(), String> {
+    if other_renderer {
+        return Err("--gpu-budget renders the ray caster's isosurfaces and volume renderings out of core; PERM, the hand-written schemes and --renderer pt are not offered: drop --gpu-budget or --cache/--renderer/the scheme".into());
     }
     if exact {
         return Err(

@@ -215,17 +215,49 @@ impl DvrCaster {
         )?;
         // The bands rewrote the parameters: the next encode writes its own.
         self.last_params = None;
+        let ms_per_frame = if times.is_empty() { f64::NAN } else { times[times.len() / 2] };
+        self.read_image(ms_per_frame)
+    }
+
+    /// The current image read back as RGBA8, with `ms_per_frame`.
+    pub(crate) fn read_image(&self, ms_per_frame: f64) -> Result<Frame, RenderError> {
+        let frame = self.frame.as_ref().ok_or(RenderError::EmptyTarget)?;
         let words: Vec<u32> = bytemuck::cast_slice(&self.gpu.read_buffer(&frame.image)?).to_vec();
         let rgba = words.iter().flat_map(|w| w.to_le_bytes()).collect();
-        let ms_per_frame = if times.is_empty() { f64::NAN } else { times[times.len() / 2] };
         Ok(Frame {
-            width: o.width,
-            height: o.height,
+            width: frame.width,
+            height: frame.height,
             rgba,
             ms_per_frame,
             empty_blocks: self.empty_blocks,
             skip_map: Some(self.skip_map),
         })
+    }
+
+    /// Sets up a frame dispatched by the caller (out of core, in passes):
+    /// the image of `o`'s size and the parameters of its camera with this
+    /// core's look.
+    pub(crate) fn prepare(&mut self, o: &DvrOptions) -> Result<(), RenderError> {
+        if o.width == 0 || o.height == 0 {
+            return Err(RenderError::EmptyTarget);
+        }
+        self.ensure_image(o.width, o.height)?;
+        let camera = Camera { azimuth: o.azimuth, elevation: o.elevation, perspective: o.perspective };
+        let params = self.params_for(&self.options(o.width, o.height, &camera));
+        self.gpu.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
+        self.last_params = Some(params);
+        Ok(())
+    }
+
+    /// One dispatch of `pipeline` over the whole prepared image.
+    pub(crate) fn dispatch_image(&self, pipeline: &wgpu::ComputePipeline) -> Result<(), GpuError> {
+        let frame = self.frame.as_ref().ok_or_else(|| GpuError::Runtime("no frame was prepared".into()))?;
+        self.gpu.dispatch(
+            self.label,
+            pipeline,
+            &[&self.samples, &frame.caster],
+            (frame.width.div_ceil(8), frame.height.div_ceil(8), 1),
+        )
     }
 
     /// The image and the group-1 bind group for a `width` x `height` frame

@@ -163,12 +163,24 @@ pub(crate) fn check_curvature_tf(d: &Derivation, radius: f32) -> Result<(), GpuE
 /// [`dvr_template_with`] with the curvature transfer function of radius
 /// `curvature` (cells): samples from `<f>_eval_hessian`, coloured by (k1, k2).
 pub(crate) fn dvr_template_curvature(name: &str, lookup: bool, host_depth: bool, curvature: Option<f32>) -> String {
+    dvr_template_full(name, lookup, host_depth, curvature, false)
+}
+
+/// The DVR template out of core (`templates/paged.wgsl.j2` included): the
+/// samples from the brick pool, suspended and resumed across passes
+/// ([`crate::render::paged::PagedDvrRenderer`]).
+pub(crate) fn dvr_template_paged(name: &str) -> String {
+    dvr_template_full(name, false, false, None, true)
+}
+
+fn dvr_template_full(name: &str, lookup: bool, host_depth: bool, curvature: Option<f32>, paged: bool) -> String {
     let mut env = minijinja::Environment::new();
     env.add_template("dvr", include_str!("../../../../templates/dvr.wgsl.j2")).expect("template");
+    env.add_template("paged", include_str!("../../../../templates/paged.wgsl.j2")).expect("template");
     let text = env
         .get_template("dvr")
         .unwrap()
-        .render(minijinja::context! { name => name, perm => lookup, host_depth => host_depth, curvature => curvature.is_some() })
+        .render(minijinja::context! { name => name, perm => lookup, host_depth => host_depth, curvature => curvature.is_some(), paged => paged })
         .expect("render");
     match curvature {
         Some(r) => format!("{text}{}", crate::render::iso::curvature::curvature_tf_wgsl(name, r)),

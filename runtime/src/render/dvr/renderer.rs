@@ -43,6 +43,13 @@ pub struct DvrLook {
     pub curvature: Option<f32>,
 }
 
+impl From<&DvrOptions> for DvrLook {
+    /// The look of one-shot options (their frame fields dropped).
+    fn from(o: &DvrOptions) -> DvrLook {
+        super::caster::look_of(o)
+    }
+}
+
 impl Default for DvrLook {
     fn default() -> Self {
         let o = DvrOptions::default();

@@ -195,6 +195,7 @@ pub(crate) fn template(
 pub(crate) fn paged_template(name: &str) -> String {
     let mut env = minijinja::Environment::new();
     env.add_template("raycast", include_str!("../../../../templates/raycast.wgsl.j2")).expect("template");
+    env.add_template("paged", include_str!("../../../../templates/paged.wgsl.j2")).expect("template");
     let ctx = minijinja::context! { name => name, exact => false, host_depth => false, paged => true };
     env.get_template("raycast").unwrap().render(ctx).expect("render")
 }

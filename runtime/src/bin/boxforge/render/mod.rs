@@ -290,7 +290,6 @@ pub fn run(a: RenderArgs) -> Result<(), Failure> {
     let budget = a.gpu_budget.as_deref().map(request::parse_budget).transpose()?;
     match budget {
         Some(_) => request::check_paged(
-            dvr.is_some(),
             matches!(a.hit, HitArg::Exact),
             layout,
             perm.is_some() || pt || Scheme::parse(&a.filter).is_some(),
@@ -374,9 +373,37 @@ pub fn run(a: RenderArgs) -> Result<(), Failure> {
             ..RenderOptions::default()
         };
         let source = paged::open_source(&a.volume, a.raw.as_deref(), &lat)?;
+        let what = match tf {
+            None => paged::Paged::Iso(camera),
+            Some(tf) => {
+                let tf = if dvr.as_deref() == Some("") {
+                    // No --tf: the default ramp over the samples' range (one pass over the source).
+                    let (lo, hi) = source.sample_range().map_err(|e| Failure(e.to_string()))?;
+                    let ramp = TransferFunction::ramp(lo as f64, hi as f64);
+                    eprintln!("no --tf given: using the default transfer function, a {} (give --tf to choose one)", ramp.name);
+                    ramp
+                } else {
+                    tf
+                };
+                let o = boxforge_runtime::render::dvr::DvrOptions {
+                    width: size,
+                    height: size,
+                    azimuth: az,
+                    elevation: el,
+                    perspective: a.perspective,
+                    skip: !a.no_skip,
+                    skip_map: skip_map(a.skip_one_block),
+                    preintegrate: !a.no_preintegration,
+                    step: a.step,
+                    ..Default::default()
+                };
+                let look = boxforge_runtime::render::dvr::DvrLook::from(&o);
+                paged::Paged::Dvr(tf.table(), look, o)
+            }
+        };
         let gpu = Gpu::new(a.adapter.as_deref()).map_err(|e| Failure(e.to_string()))?;
         request::check_image_limits(size, &gpu.limits())?;
-        return paged::render(&gpu, &d, source.as_ref(), options, &camera, &a.out, a.stats_json);
+        return paged::render(&gpu, &d, source.as_ref(), options, what, &a.out, a.stats_json);
     }
     let vol = scene::load(&a.volume, a.raw.as_deref(), &lat, conversion).map_err(|e| Failure(e.to_string()))?;
     let (lo, hi) = vol.data.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));

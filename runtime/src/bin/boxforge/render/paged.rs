@@ -1,11 +1,13 @@
-//! `render --gpu-budget`: an isosurface out of core, with the frame's passes,
-//! uploads and memory on one line.
+//! `render --gpu-budget`: an isosurface or a volume rendering out of core,
+//! with the frame's passes, uploads and memory on one line.
 
 use crate::common::Failure;
 use boxforge::derive::Derivation;
 use boxforge_runtime::gpu::Gpu;
-use boxforge_runtime::render::iso::{self as render, RenderOptions};
-use boxforge_runtime::render::paged::{human, PagedIsoRenderer, PagedOptions};
+use boxforge_runtime::render::dvr::transfer::Tf1d;
+use boxforge_runtime::render::dvr::{DvrLook, DvrOptions};
+use boxforge_runtime::render::iso::{self as render, Frame, RenderOptions};
+use boxforge_runtime::render::paged::{human, PagedDvrRenderer, PagedIsoRenderer, PagedOptions, PagedStats};
 use boxforge_runtime::volume::{BrickSource, MappedVolume};
 
 /// The samples `--volume` names, for out-of-core rendering: `ml:N` built in
@@ -35,6 +37,38 @@ pub fn open_source(
     Ok(Box::new(m))
 }
 
+/// What `render --gpu-budget` draws.
+pub enum Paged {
+    /// An isosurface (the camera and image size).
+    Iso(RenderOptions),
+    /// A volume rendering: the transfer function, the look and the frame.
+    Dvr(Tf1d, DvrLook, DvrOptions),
+}
+
+/// Either out-of-core renderer, built (one per command: its size is no matter).
+#[allow(clippy::large_enum_variant)]
+enum Renderer {
+    Iso(PagedIsoRenderer, RenderOptions),
+    Dvr(PagedDvrRenderer, DvrOptions),
+}
+
+impl Renderer {
+    fn frame(&mut self, source: &dyn BrickSource) -> Result<(Frame, PagedStats), Failure> {
+        match self {
+            Renderer::Iso(r, o) => r.render(source, o),
+            Renderer::Dvr(r, o) => r.render(source, o),
+        }
+        .map_err(|e| Failure(e.to_string()))
+    }
+
+    fn bounds_cached(&self) -> bool {
+        match self {
+            Renderer::Iso(r, _) => r.bounds_cached(),
+            Renderer::Dvr(r, _) => r.bounds_cached(),
+        }
+    }
+}
+
 /// Preprocesses `source` brick row by brick row (a progress line on
 /// stderr), renders one frame in passes and writes it to `out`.
 pub fn render(
@@ -42,7 +76,7 @@ pub fn render(
     d: &Derivation,
     source: &dyn BrickSource,
     options: PagedOptions,
-    camera: &RenderOptions,
+    what: Paged,
     out: &std::path::Path,
     stats_json: bool,
 ) -> Result<(), Failure> {
@@ -56,7 +90,16 @@ pub fn render(
         }
     };
     let budget = options.budget;
-    let mut r = PagedIsoRenderer::new(gpu, d, source, options, &progress).map_err(|e| Failure(e.to_string()))?;
+    let failed = |e: boxforge_runtime::render::RenderError| Failure(e.to_string());
+    let (mut r, holding) = match what {
+        Paged::Iso(o) => {
+            (Renderer::Iso(PagedIsoRenderer::new(gpu, d, source, options, &progress).map_err(failed)?, o), "surface's")
+        }
+        Paged::Dvr(table, look, o) => (
+            Renderer::Dvr(PagedDvrRenderer::new(gpu, d, source, table, look, options, &progress).map_err(failed)?, o),
+            "visible",
+        ),
+    };
     let preprocess_ms = started.elapsed().as_secs_f64() * 1e3;
     if r.bounds_cached() {
         eprintln!(
@@ -65,12 +108,12 @@ pub fn render(
         );
     }
 
-    let (frame, stats) = r.render(source, camera).map_err(|e| Failure(e.to_string()))?;
+    let (frame, stats) = r.frame(source)?;
     let host = boxforge_runtime::memory::peak_resident_bytes().map_or("unknown".into(), human);
     render::write_png(out, frame.width, frame.height, &frame.rgba)
         .map_err(|e| Failure(format!("cannot write {}: {e}", out.display())))?;
     eprintln!(
-        "{}: {}x{} in {:.1} ms out of core: {} passes, {} bricks uploaded ({} evicted) into {} slots; {} of {} bricks hold the surface's blocks; device {} of the {} budget; peak host memory (VmHWM) {host}",
+        "{}: {}x{} in {:.1} ms out of core: {} passes, {} bricks uploaded ({} evicted) into {} slots; {} of {} bricks hold {holding} blocks; device {} of the {} budget; peak host memory (VmHWM) {host}",
         out.display(),
         frame.width,
         frame.height,
@@ -85,7 +128,7 @@ pub fn render(
         human(budget),
     );
     if stats_json {
-        let (_, warm) = r.render(source, camera).map_err(|e| Failure(e.to_string()))?;
+        let (_, warm) = r.frame(source)?;
         let json = serde_json::json!({
             "preprocess_ms": preprocess_ms,
             "bounds_cached": r.bounds_cached(),
