@@ -102,3 +102,22 @@ fn a_transfer_function_transparent_over_the_data_uploads_no_brick() {
     assert_eq!((stats.uploads, stats.passes, stats.occupied_bricks), (0, 1, 0), "{stats:?}");
     assert!(frame.rgba.chunks(4).all(|p| p == frame.rgba[..4].to_vec()), "background only");
 }
+
+#[test]
+fn render_dvr_with_a_budget_renders_out_of_core_from_the_cli() {
+    let dir = std::env::temp_dir().join(format!("boxforge-paged-dvr-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = dir.join("dvr.png");
+    let run = std::process::Command::new(env!("CARGO_BIN_EXE_boxforge"))
+        .args(["render", "--filter", "bcc7", "--volume", "ml:24", "--mode", "dvr", "--tf", "marschner-lobb"])
+        .args(["--size", "32", "--gpu-budget", "2MiB", "--brick", "8", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{stderr}");
+    assert!(stderr.contains("out of core") && stderr.contains("passes"), "{stderr}");
+    let png = std::fs::read(&out).unwrap();
+    assert_eq!(&png[1..4], b"PNG");
+    let _ = std::fs::remove_dir_all(&dir);
+}
