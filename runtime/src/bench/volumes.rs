@@ -180,10 +180,10 @@ pub fn markdown(r: &VolumesReport, command: &str) -> String {
     if !r.out_of_core.is_empty() {
         let _ = writeln!(
             s,
-            "**Out of core** (`render --gpu-budget`, each row its own process reading the u8 file through a memory map; {}x{} frames): the first frame starts with an empty pool, the warm frame follows it. Peak host memory is the process's VmHWM; on lavapipe device memory is host memory, so it holds the pool too (on a GPU it does not). Fixed overhead: VmHWM of the same command on `ml:8` (driver, shader compiler, buffers).\n",
+            "**Out of core** (`render --gpu-budget`, each row its own process reading the u8 file through a memory map; {}x{} frames; isosurfaces at 127.5, and rows marked DVR volume renderings under the default ramp transfer function, `--mode dvr`): the first frame starts with an empty pool, the warm frame follows it. Peak host memory is the process's VmHWM; on lavapipe device memory is host memory, so it holds the pool too (on a GPU it does not). Fixed overhead: VmHWM of the same command on `ml:8` (driver, shader compiler, buffers).\n",
             r.size, r.size
         );
-        let _ = writeln!(s, "| filter | volume | budget | bounds (s) | first frame ms (passes, bricks uploaded) | warm frame ms (passes, uploads) | slots | bricks holding surface / all | device | peak host | fixed overhead | host - overhead vs budget |");
+        let _ = writeln!(s, "| filter | volume | budget | bounds (s) | first frame ms (passes, bricks uploaded) | warm frame ms (passes, uploads) | slots | bricks holding surface (DVR: visible blocks) / all | device | peak host | fixed overhead | host - overhead vs budget |");
         let _ = writeln!(s, "|---|---|---:|---:|---|---|---:|---|---:|---:|---:|---|");
         for row in &r.out_of_core {
             let st = &row.stats;

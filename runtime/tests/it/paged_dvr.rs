@@ -108,16 +108,22 @@ fn render_dvr_with_a_budget_renders_out_of_core_from_the_cli() {
     let dir = std::env::temp_dir().join(format!("boxforge-paged-dvr-cli-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let out = dir.join("dvr.png");
-    let run = std::process::Command::new(env!("CARGO_BIN_EXE_boxforge"))
-        .args(["render", "--filter", "bcc7", "--volume", "ml:24", "--mode", "dvr", "--tf", "marschner-lobb"])
-        .args(["--size", "32", "--gpu-budget", "2MiB", "--brick", "8", "--out"])
-        .arg(&out)
-        .output()
-        .unwrap();
-    let stderr = String::from_utf8_lossy(&run.stderr);
-    assert!(run.status.success(), "{stderr}");
-    assert!(stderr.contains("out of core") && stderr.contains("passes"), "{stderr}");
-    let png = std::fs::read(&out).unwrap();
-    assert_eq!(&png[1..4], b"PNG");
+    // With a transfer function, and without one (the default ramp).
+    for tf in [&["--tf", "marschner-lobb"][..], &[]] {
+        let run = std::process::Command::new(env!("CARGO_BIN_EXE_boxforge"))
+            .args(["render", "--filter", "bcc7", "--volume", "ml:24", "--mode", "dvr"])
+            .args(tf)
+            .args(["--size", "32", "--gpu-budget", "2MiB", "--brick", "8", "--out"])
+            .arg(&out)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert!(run.status.success(), "{stderr}");
+        // A volume rendering (its bricks hold visible blocks), not an isosurface.
+        assert!(stderr.contains("out of core") && stderr.contains("visible blocks"), "{stderr}");
+        assert_eq!(tf.is_empty(), stderr.contains("no --tf given"), "{stderr}");
+        let png = std::fs::read(&out).unwrap();
+        assert_eq!(&png[1..4], b"PNG");
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }

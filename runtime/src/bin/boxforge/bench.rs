@@ -335,11 +335,16 @@ fn volumes(a: &BenchArgs) -> Result<(), Failure> {
                  volume: &str,
                  raw: Option<String>,
                  budget: u64,
-                 iso: &str|
+                 iso: Option<&str>|
      -> Result<serde_json::Value, Failure> {
         let mut cmd = std::process::Command::new(&exe);
-        cmd.args(["render", "--filter", filter, "--volume", volume, "--format", "u8", "--iso", iso, "--size"])
-            .arg(size.to_string())
+        cmd.args(["render", "--filter", filter, "--volume", volume, "--format", "u8", "--size"]).arg(size.to_string());
+        // An isosurface at `iso`, or a volume rendering under the default ramp.
+        match iso {
+            Some(iso) => cmd.args(["--iso", iso]),
+            None => cmd.args(["--mode", "dvr"]),
+        };
+        cmd
             .args(["--gpu-budget", &budget.to_string(), "--stats-json", "--no-bounds-cache", "--out"])
             .arg(&out_png);
         if let Some(r) = raw {
@@ -359,18 +364,23 @@ fn volumes(a: &BenchArgs) -> Result<(), Failure> {
         serde_json::from_slice(&out.stdout).map_err(|e| Failure(format!("unreadable render statistics: {e}")))
     };
     let mut out_of_core = Vec::new();
-    for f in ["bcc7", "cc_tricubic"] {
-        let base = child(f, "ml:8", None, budgets[budgets.len() - 1], "0.5")?["host_peak_bytes"].as_u64();
-        let runs: Vec<(std::path::PathBuf, [usize; 3], u64)> = budgets
+    // Isosurfaces of both filters at every budget and bcc7's of the long
+    // volume; then bcc7's volume renderings at the smallest budget.
+    let smallest = budgets[budgets.len() - 1];
+    for (f, dvr) in [("bcc7", false), ("cc_tricubic", false), ("bcc7", true)] {
+        let iso = |v: &'static str| (!dvr).then_some(v);
+        let base = child(f, "ml:8", None, smallest, iso("0.5"))?["host_peak_bytes"].as_u64();
+        let cubes = if dvr { vec![smallest] } else { budgets.clone() };
+        let runs: Vec<(std::path::PathBuf, [usize; 3], u64)> = cubes
             .iter()
             .map(|&b| (cube.clone(), [large; 3], b))
-            .chain((f == "bcc7").then(|| (long_path.clone(), long, budgets[budgets.len() - 1] / 4)))
+            .chain((f == "bcc7").then(|| (long_path.clone(), long, smallest / 4)))
             .collect();
         for (path, dims, budget) in runs {
             let raw = format!("{},{},{},u8", dims[0], dims[1], dims[2]);
-            let stats = child(f, &path.display().to_string(), Some(raw), budget, "127.5")?;
+            let stats = child(f, &path.display().to_string(), Some(raw), budget, iso("127.5"))?;
             out_of_core.push(bench::volumes::OutOfCoreRow {
-                filter: f.into(),
+                filter: if dvr { format!("{f} (DVR)") } else { f.into() },
                 volume: format!(
                     "ML {}x{}x{} u8 on disk ({} MiB)",
                     dims[0],

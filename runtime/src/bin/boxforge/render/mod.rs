@@ -373,17 +373,21 @@ pub fn run(a: RenderArgs) -> Result<(), Failure> {
             ..RenderOptions::default()
         };
         let source = paged::open_source(&a.volume, a.raw.as_deref(), &lat)?;
-        let what = match tf {
-            None => paged::Paged::Iso(camera),
-            Some(tf) => {
-                let tf = if dvr.as_deref() == Some("") {
-                    // No --tf: the default ramp over the samples' range (one pass over the source).
-                    let (lo, hi) = source.sample_range().map_err(|e| Failure(e.to_string()))?;
-                    let ramp = TransferFunction::ramp(lo as f64, hi as f64);
-                    eprintln!("no --tf given: using the default transfer function, a {} (give --tf to choose one)", ramp.name);
-                    ramp
-                } else {
-                    tf
+        let what = match (&dvr, tf) {
+            (None, _) => paged::Paged::Iso(camera),
+            (Some(_), tf) => {
+                let tf = match tf {
+                    Some(tf) => tf,
+                    None => {
+                        // No --tf: the default ramp over the samples' range (one pass over the source).
+                        let (lo, hi) = source.sample_range().map_err(|e| Failure(e.to_string()))?;
+                        let ramp = TransferFunction::ramp(lo as f64, hi as f64);
+                        eprintln!(
+                            "no --tf given: using the default transfer function, a {} (give --tf to choose one)",
+                            ramp.name
+                        );
+                        ramp
+                    }
                 };
                 let o = boxforge_runtime::render::dvr::DvrOptions {
                     width: size,
