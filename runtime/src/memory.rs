@@ -32,6 +32,20 @@ pub fn release_free_heap() {
     }
 }
 
+/// Has the allocator give every block of 1 MiB or more its own mapping,
+/// unmapped when freed (glibc's M_MMAP_THRESHOLD, which otherwise rises
+/// with each large free until such blocks come from the heap, where a
+/// freed table can stay resident; a no-op elsewhere). The out-of-core
+/// paths set it before their preprocessing tables, so the memory those
+/// tables held is gone before the brick pool fills.
+pub fn map_large_allocations() {
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    // SAFETY: mallopt only changes the allocator's tuning parameters.
+    unsafe {
+        libc::mallopt(libc::M_MMAP_THRESHOLD, 1 << 20);
+    }
+}
+
 fn status_bytes(key: &str) -> Option<u64> {
     let text = std::fs::read_to_string("/proc/self/status").ok()?;
     parse_status(&text, key)

@@ -142,16 +142,7 @@ pub fn prefilter_to_file(
     });
     let pipeline = gpu.pipeline("prefilter slab", &shader, &[&bgl], &format!("{name}_prefilter_main"))?;
     let size = [dims[0] + 2 * halo, dims[1] + 2 * halo, nz + 2 * halo];
-    let tex = dev.create_texture(&wgpu::TextureDescriptor {
-        label: Some("prefilter slab"),
-        size: wgpu::Extent3d { width: size[0] as u32, height: size[1] as u32, depth_or_array_layers: size[2] as u32 },
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D3,
-        format: wgpu::TextureFormat::R32Float,
-        usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-        view_formats: &[],
-    });
+    let tex = gpu.sampled_texture_3d("prefilter slab", size.map(|n| n as u32), wgpu::TextureFormat::R32Float);
     let view = tex.create_view(&Default::default());
     let outbuf = gpu.storage_buffer("prefiltered slab", &vec![0u8; dims[0] * dims[1] * nz * 4], true);
     let job_buf = gpu.uniform_buffer("prefilter job", &[0u8; 32]);

@@ -86,6 +86,7 @@ impl BrickPool {
         reserve: Reserve,
         progress: &dyn Fn(usize, usize),
     ) -> Result<(BrickPool, Vec<[f32; 2]>), RenderError> {
+        crate::memory::map_large_allocations();
         let dims = source.dims();
         let period = bounds::lattice_period(source.lattice());
         let binding_limit = gpu.limits().max_storage_buffer_binding_size;
@@ -197,30 +198,8 @@ impl BrickPool {
         trace_memory("bounds");
         let dev = &gpu.device;
         let pool_size = slots.map(|s| (s * slot) as u32);
-        let pool = dev.create_texture(&wgpu::TextureDescriptor {
-            label: Some("brick pool"),
-            size: wgpu::Extent3d { width: pool_size[0], height: pool_size[1], depth_or_array_layers: pool_size[2] },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D3,
-            format: format.texture_format(),
-            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-            view_formats: &[],
-        });
-        let pages = dev.create_texture(&wgpu::TextureDescriptor {
-            label: Some("page table"),
-            size: wgpu::Extent3d {
-                width: bricks[0] as u32,
-                height: bricks[1] as u32,
-                depth_or_array_layers: bricks[2] as u32,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D3,
-            format: wgpu::TextureFormat::R32Uint,
-            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-            view_formats: &[],
-        });
+        let pool = gpu.sampled_texture_3d("brick pool", pool_size, format.texture_format());
+        let pages = gpu.sampled_texture_3d("page table", bricks.map(|n| n as u32), wgpu::TextureFormat::R32Uint);
         let uniform: [i32; 8] = [
             dims[0] as i32,
             dims[1] as i32,

@@ -142,6 +142,23 @@ pub struct RenderArgs {
 }
 
 /// `--skip-one-block`: the map of one-block skipping, else the distance map.
+/// The DVR options the flags give for a `size`^2 frame seen from `view`
+/// (azimuth, elevation), in core and out of core alike.
+fn dvr_options(a: &RenderArgs, size: u32, view: (f32, f32)) -> boxforge_runtime::render::dvr::DvrOptions {
+    boxforge_runtime::render::dvr::DvrOptions {
+        width: size,
+        height: size,
+        azimuth: view.0,
+        elevation: view.1,
+        perspective: a.perspective,
+        skip: !a.no_skip,
+        skip_map: skip_map(a.skip_one_block),
+        preintegrate: !a.no_preintegration,
+        step: a.step,
+        ..Default::default()
+    }
+}
+
 fn skip_map(one_block: bool) -> boxforge_runtime::render::blocks::SkipMap {
     use boxforge_runtime::render::blocks::SkipMap;
     if one_block {
@@ -389,18 +406,7 @@ pub fn run(a: RenderArgs) -> Result<(), Failure> {
                         ramp
                     }
                 };
-                let o = boxforge_runtime::render::dvr::DvrOptions {
-                    width: size,
-                    height: size,
-                    azimuth: az,
-                    elevation: el,
-                    perspective: a.perspective,
-                    skip: !a.no_skip,
-                    skip_map: skip_map(a.skip_one_block),
-                    preintegrate: !a.no_preintegration,
-                    step: a.step,
-                    ..Default::default()
-                };
+                let o = dvr_options(&a, size, (az, el));
                 let look = boxforge_runtime::render::dvr::DvrLook::from(&o);
                 paged::Paged::Dvr(tf.table(), look, o)
             }
@@ -461,20 +467,11 @@ pub fn run(a: RenderArgs) -> Result<(), Failure> {
                 (None, None) => dvr::How::RayCast,
             };
             let o = boxforge_runtime::render::dvr::DvrOptions {
-                width: size,
-                height: size,
-                azimuth: az,
-                elevation: el,
-                perspective: a.perspective,
-                skip: !a.no_skip,
-                skip_map: skip_map(a.skip_one_block),
-                preintegrate: !a.no_preintegration,
-                step: a.step,
                 progress: true,
                 frames: 1,
                 volume,
                 curvature: a.tf_curvature.then_some(a.curvature_radius),
-                ..Default::default()
+                ..dvr_options(&a, size, (az, el))
             };
             dvr::frame(&gpu, &d, &vol, layout, tf, &o, how)
         }
