@@ -344,9 +344,7 @@ fn volumes(a: &BenchArgs) -> Result<(), Failure> {
             Some(iso) => cmd.args(["--iso", iso]),
             None => cmd.args(["--mode", "dvr"]),
         };
-        cmd
-            .args(["--gpu-budget", &budget.to_string(), "--stats-json", "--no-bounds-cache", "--out"])
-            .arg(&out_png);
+        cmd.args(["--gpu-budget", &budget.to_string(), "--stats-json", "--no-bounds-cache", "--out"]).arg(&out_png);
         if let Some(r) = raw {
             cmd.args(["--raw", &r]);
         }

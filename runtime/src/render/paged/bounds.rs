@@ -85,7 +85,8 @@ pub fn brick_row_bounds(
     let mut bounds = vec![[0f32; 2]; blocks[0] * blocks[1] * blocks[2]];
     // One texture, output and job buffer for every slab (a smaller last slab
     // uses a corner of them: its stencils never reach past what it writes).
-    let tex = gpu.sampled_texture_3d("brick slab", [width as u32, height as u32, depth as u32], format.texture_format());
+    let tex =
+        gpu.sampled_texture_3d("brick slab", [width as u32, height as u32, depth as u32], format.texture_format());
     let view = tex.create_view(&Default::default());
     let out = gpu.storage_buffer("slab bounds", &vec![0u8; row_len * rows_y * layers_z * per_brick.pow(3) * 8], true);
     let job_buf = gpu.uniform_buffer("slab job", &[0u8; 32]);

@@ -72,8 +72,7 @@ impl PagedDvrRenderer {
         let options = PagedOptions { block: pool.block as i32, ..options };
         let look = DvrLook { block: options.block, ..look };
         let grid = blocks_per_axis(pool.dims, options.block);
-        let occupied_bricks =
-            occupied(&empty_flags(&bounds, &table), grid, pool.bricks, pool.shape.edge / pool.block);
+        let occupied_bricks = occupied(&empty_flags(&bounds, &table), grid, pool.bricks, pool.shape.edge / pool.block);
         let module = EmitOptions {
             layout: Layout::Bricked,
             samples: pool.map,
@@ -91,7 +90,8 @@ impl PagedDvrRenderer {
             label: Some("paged dvr"),
             entries: &layout_entries_from(&bindings, 1)?,
         });
-        let resume = gpu.storage_buffer("paged dvr resume", &vec![0u8; (options.max_pixels * RESUME_BYTES) as usize], true);
+        let resume =
+            gpu.storage_buffer("paged dvr resume", &vec![0u8; (options.max_pixels * RESUME_BYTES) as usize], true);
         let parts = CasterParts {
             label: "paged dvr",
             radius: crate::verify::support_radius(d),
@@ -122,7 +122,8 @@ impl PagedDvrRenderer {
         let start = std::time::Instant::now();
         self.caster.prepare(o)?;
         // Every ray starts from the beginning.
-        let mut enc = self.gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("paged dvr") });
+        let mut enc =
+            self.gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("paged dvr") });
         enc.clear_buffer(&self.resume, 0, Some(pixels * RESUME_BYTES));
         self.gpu.queue.submit([enc.finish()]);
         let (caster, pipeline) = (&self.caster, &self.pipeline);

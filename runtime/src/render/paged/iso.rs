@@ -143,9 +143,9 @@ impl PagedIsoRenderer {
         let groups = (o.width.div_ceil(8), o.height.div_ceil(8), 1);
         // The samples group is a handle: a clone lets the pool run the passes.
         let (pipeline, samples) = (&self.pipeline, self.pool.samples.clone());
-        let mut stats = self.pool.run_passes(source, || {
-            Ok(gpu.dispatch("paged raycast", pipeline, &[&samples, &caster], groups)?)
-        })?;
+        let mut stats = self
+            .pool
+            .run_passes(source, || Ok(gpu.dispatch("paged raycast", pipeline, &[&samples, &caster], groups)?))?;
         let words: Vec<u32> = bytemuck::cast_slice(&gpu.read_buffer(&image)?).to_vec();
         let rgba = bytemuck::cast_slice(&words).to_vec();
         let ms = start.elapsed().as_secs_f64() * 1e3;
