@@ -70,6 +70,10 @@ pub enum VolumeError {
         "the file {path} shrank from {old} to {new} bytes while boxforge read it; do not modify a volume while it is rendered (let the writer finish, then open it again)"
     )]
     Shrunk { path: PathBuf, old: u64, new: u64 },
+    /// A time series (4D data) that cannot be read as one: no frames,
+    /// frames of different dims, a file of the wrong length or rank.
+    #[error("time series: {message}")]
+    Series { message: String },
     /// A NaN or infinite sample met while a volume is read box by box.
     #[error(
         "{path}: the sample at voxel ({}, {}, {}) is NaN or infinite; boxforge needs finite samples: replace them (e.g. with 0 or the background value) before loading",

@@ -2,7 +2,8 @@
 //! [`LatticeVolume`] types, their accessors and the re-exports of the rest,
 //! which lives beside them one concern per file: `error.rs` (the error type
 //! and shared input checks), `nifti.rs` and `raw.rs` (file formats),
-//! `synthetic.rs` (the Marschner-Lobb test signal), `convert.rs` (lattice
+//! `synthetic.rs` (the Marschner-Lobb test signal), `series.rs` (time
+//! series of volumes, 4D data), `convert.rs` (lattice
 //! (cc/bcc/fcc) sample sets from Cartesian volumes) and `packing.rs` (the
 //! coset-packed storage layout) (docs/BOX_SPLINES.md §1, §5).
 //!
@@ -23,6 +24,7 @@ mod nifti;
 mod nifti_off;
 mod packing;
 mod raw;
+mod series;
 mod source;
 mod stream;
 mod synthetic;
@@ -35,6 +37,7 @@ pub use error::VolumeError;
 pub use format::SampleFormat;
 pub use packing::PackedVolume;
 pub use raw::{parse_raw_spec, RawType};
+pub use series::{marschner_lobb_drift, ml_drift_frequency, VolumeSeries};
 pub use source::{check_box_len, BrickSource};
 pub use stream::{default_cache_dir, MappedVolume};
 pub use synthetic::{marschner_lobb, marschner_lobb_grad, marschner_lobb_hessian, ml_position};

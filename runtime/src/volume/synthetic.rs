@@ -6,8 +6,8 @@ use boxforge::spec::lattice::Lattice;
 use std::f64::consts::PI;
 
 /// Marschner-Lobb parameters (docs/BOX_SPLINES.md §5).
-const ML_FM: f64 = 6.0;
-const ML_ALPHA: f64 = 0.25;
+pub(crate) const ML_FM: f64 = 6.0;
+pub(crate) const ML_ALPHA: f64 = 0.25;
 
 /// Marschner-Lobb (f_M = 6, alpha = 0.25) on [-1,1]^3 and its analytic gradient.
 pub fn marschner_lobb(p: [f64; 3]) -> f64 {
