@@ -6,6 +6,7 @@
 use wgpu::util::DeviceExt;
 
 pub mod binding;
+pub mod params;
 pub mod timing;
 
 #[derive(Debug, thiserror::Error)]
@@ -33,6 +34,9 @@ pub struct Gpu {
     pub queue: wgpu::Queue,
     pub info: wgpu::AdapterInfo,
     pub timestamps: bool,
+    /// The runtime's parameter blocks are read-only storage buffers, not
+    /// uniform blocks ([`params`]: on CPU adapters).
+    params_in_storage: bool,
     /// The first device error no error scope caught (wgpu would panic on it
     /// otherwise); [`Gpu::wait`] and [`Gpu::read_buffer`] report it.
     uncaptured: std::sync::Arc<std::sync::Mutex<Option<String>>>,
@@ -156,7 +160,8 @@ impl Gpu {
     fn with_info(device: wgpu::Device, queue: wgpu::Queue, info: wgpu::AdapterInfo) -> Gpu {
         let timestamps = device.features().contains(wgpu::Features::TIMESTAMP_QUERY);
         let uncaptured = std::sync::Arc::new(std::sync::Mutex::new(None));
-        Gpu { device, queue, info, timestamps, uncaptured }
+        let params_in_storage = info.device_type == wgpu::DeviceType::Cpu;
+        Gpu { device, queue, info, timestamps, params_in_storage, uncaptured }
     }
 
     /// Records the first device error no error scope caught instead of
@@ -173,6 +178,45 @@ impl Gpu {
         }));
     }
 
+    /// Whether the runtime's parameter blocks are read-only storage buffers
+    /// here (CPU adapters such as lavapipe; see [`params`]).
+    pub fn params_in_storage(&self) -> bool {
+        self.params_in_storage
+    }
+
+    /// This device with the parameter blocks in storage (`true`) or
+    /// uniform (`false`) buffers, whatever the adapter (tests, hosts).
+    pub fn with_params_in_storage(mut self, on: bool) -> Gpu {
+        self.params_in_storage = on;
+        self
+    }
+
+    /// A runtime template's source as this device compiles it (the
+    /// parameter blocks moved to storage where [`Gpu::params_in_storage`]).
+    pub fn params_source<'a>(&self, source: &'a str) -> std::borrow::Cow<'a, str> {
+        if self.params_in_storage {
+            std::borrow::Cow::Owned(params::in_storage(source))
+        } else {
+            std::borrow::Cow::Borrowed(source)
+        }
+    }
+
+    /// The binding table of a runtime template's source as this device
+    /// compiles it (group layouts follow the parameter blocks' address space).
+    pub fn bindings_of(&self, source: &str) -> Result<Vec<boxforge::validate::Binding>, GpuError> {
+        boxforge::validate::bindings_of_wgsl(&self.params_source(source))
+            .map_err(|message| GpuError::Shader { label: "bindings".into(), message })
+    }
+
+    /// The layout entry of a parameter block at `binding` (compute stage).
+    pub fn params_entry(&self, binding: u32) -> wgpu::BindGroupLayoutEntry {
+        if self.params_in_storage {
+            binding::storage_entry(binding, true)
+        } else {
+            binding::uniform_entry(binding)
+        }
+    }
+
     /// One line naming the adapter.
     pub fn describe(&self) -> String {
         format!(
@@ -181,8 +225,11 @@ impl Gpu {
         )
     }
 
-    /// Compiles WGSL; validation errors (with naga's spans) become an error.
+    /// Compiles WGSL (a runtime template's parameter blocks placed as
+    /// [`Gpu::params_source`] says); validation errors (with naga's spans)
+    /// become an error.
     pub fn compile(&self, label: &str, source: &str) -> Result<wgpu::ShaderModule, GpuError> {
+        let source = &*self.params_source(source);
         // naga first: its message carries the source spans.
         naga_check(source, label)?;
         let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
@@ -317,7 +364,7 @@ impl Gpu {
         self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some(label),
             contents: bytes,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
         })
     }
 

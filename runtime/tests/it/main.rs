@@ -20,6 +20,7 @@ mod host_depth;
 mod mattausch_references;
 mod paged;
 mod paged_dvr;
+mod params;
 mod perm;
 mod prefilter;
 mod pt;

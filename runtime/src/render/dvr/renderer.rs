@@ -15,7 +15,7 @@ use super::skip::{empty_flags, skip_distances};
 use super::transfer::TransferFunction;
 use super::{filter_module_with, DvrOptions};
 use crate::gpu::binding::layout_entries_from;
-use crate::gpu::{Gpu, GpuError};
+use crate::gpu::Gpu;
 use crate::render::blocks::block_bounds;
 use crate::render::camera::{Camera, FrameCamera, HostDepth, Target};
 use crate::render::host::HostInput;
@@ -103,8 +103,7 @@ impl DvrRenderer {
         let source = format!("{}\n{}", module, super::dvr_template_curvature(name, false, true, look.curvature));
         let shader = gpu.compile(&format!("{name}.dvr.wgsl"), &source)?;
         // Group 1 (parameters, image, skipping flags, tables, host depth) as the template declares it.
-        let bindings = boxforge::validate::bindings_of_wgsl(&source)
-            .map_err(|message| GpuError::Shader { label: format!("{name}.dvr.wgsl"), message })?;
+        let bindings = gpu.bindings_of(&source)?;
         let bounds = block_bounds(gpu, &shader, name, volume, volume.dims, look.block)?;
         let table = tf.table();
         let pi = look.preintegrate.then(|| table.preintegrate(look.step as f64));

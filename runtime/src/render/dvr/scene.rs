@@ -1,7 +1,7 @@
 //! A volume on the device ready for DVR, and its ray caster.
 
 use super::{dvr_params, empty_flags, skip_distances, widen_bounds, DvrOptions, DvrParams};
-use crate::gpu::binding::{storage_entry, uniform_entry};
+use crate::gpu::binding::storage_entry;
 use crate::gpu::{Gpu, GpuError};
 use crate::render::blocks::block_bounds;
 use crate::render::dvr::transfer::{Preint, Tf1d, TransferFunction};
@@ -125,7 +125,7 @@ impl<'a> DvrScene<'a> {
         });
         let bgl_rc = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("dvr"),
-            entries: &caster_entries(),
+            entries: &caster_entries(gpu),
         });
         let pipeline = gpu.pipeline("dvr", &shader, &[&bgl_s, &bgl_rc], &format!("{name}_dvr_main"))?;
         let bg_s = dev.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -219,10 +219,11 @@ impl<'a> DvrScene<'a> {
     }
 }
 
-/// The group-1 layout entries of the ray caster (bindings 0 to 4).
-pub(crate) fn caster_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
+/// The group-1 layout entries of the ray caster (bindings 0 to 4; the
+/// parameters where `gpu` keeps them, [`crate::gpu::params`]).
+pub(crate) fn caster_entries(gpu: &Gpu) -> Vec<wgpu::BindGroupLayoutEntry> {
     vec![
-        uniform_entry(0),
+        gpu.params_entry(0),
         storage_entry(1, false),
         storage_entry(2, true),
         storage_entry(3, true),

@@ -13,7 +13,7 @@
 use super::{fine_grid, ray_params_for, raycast_shader_with, Frame, HitMode, RayParams, RenderOptions};
 use crate::gpu::binding::layout_entries_from;
 use crate::gpu::timing::timed_banded_frames;
-use crate::gpu::{Gpu, GpuError};
+use crate::gpu::Gpu;
 use crate::render::blocks::{self, block_bounds, SkipMap, SkipMapStats};
 use crate::render::camera::{Camera, FrameCamera, HostDepth, Target};
 use crate::render::host::HostInput;
@@ -125,8 +125,7 @@ impl IsoRenderer {
             entries: &volume.layout_entries(0, wgpu::ShaderStages::COMPUTE),
         });
         // Group 1 (parameters, image, block grids, depth, host depth) as the template declares it.
-        let bindings = boxforge::validate::bindings_of_wgsl(&source)
-            .map_err(|message| GpuError::Shader { label: format!("{name}.raycast.wgsl"), message })?;
+        let bindings = gpu.bindings_of(&source)?;
         let caster_layout = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("raycast"),
             entries: &layout_entries_from(&bindings, 1)?,

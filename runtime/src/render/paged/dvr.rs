@@ -84,8 +84,7 @@ impl PagedDvrRenderer {
         let text = format!("{}\n{}", m.source, crate::render::dvr::dvr_template_paged(&name));
         let label = format!("{name}.paged_dvr.wgsl");
         let shader = gpu.compile(&label, &text)?;
-        let bindings = boxforge::validate::bindings_of_wgsl(&text)
-            .map_err(|message| GpuError::Shader { label: label.clone(), message })?;
+        let bindings = gpu.bindings_of(&text)?;
         let layout = gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("paged dvr"),
             entries: &layout_entries_from(&bindings, 1)?,

@@ -74,8 +74,7 @@ impl PagedIsoRenderer {
         let m = emit(d, &module).map_err(|e| fail(e.to_string()))?;
         let source_text = format!("{}\n{}", m.source, crate::render::iso::template::paged_template(&name));
         let shader = gpu.compile(&format!("{name}.paged.wgsl"), &source_text)?;
-        let bindings = boxforge::validate::bindings_of_wgsl(&source_text)
-            .map_err(|message| GpuError::Shader { label: format!("{name}.paged.wgsl"), message })?;
+        let bindings = gpu.bindings_of(&source_text)?;
         let caster_layout = gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("paged raycast"),
             entries: &layout_entries_from(&bindings, 1)?,

@@ -3,7 +3,7 @@
 
 use super::texture::CacheWords;
 use super::{build_index, formula, peel, select_cells, Counts, Index, Memory, Quant, MAX_BYTES, MAX_ROW};
-use crate::gpu::binding::{storage_entry, storage_texture_entry, texture_entry, uniform_entry};
+use crate::gpu::binding::{storage_entry, storage_texture_entry, texture_entry};
 use crate::gpu::{Gpu, GpuError};
 use crate::render::blocks::block_bounds;
 use crate::render::dvr::caster::Extra;
@@ -205,7 +205,7 @@ impl PermCache {
         let gmax_buf = gpu.storage_buffer("perm gmax", &[0u8; 4], true);
         let bgl_b = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("perm build"),
-            entries: &[uniform_entry(0), storage_entry(1, true), storage_texture_entry(2), storage_entry(3, false)],
+            entries: &[gpu.params_entry(0), storage_entry(1, true), storage_texture_entry(2), storage_entry(3, false)],
         });
         let pass = |entry: &str, out: &CacheWords, n: u32, threads: u64, positions: u64, scale: [f32; 4]| {
             let (groups, row) = grid(threads);
@@ -247,9 +247,9 @@ impl PermCache {
             template(include_str!("../../../../templates/perm.wgsl.j2"), name)
         );
         let shader = gpu.compile(&format!("{name}.dvr_perm.wgsl"), &render_src)?;
-        let mut entries = caster_entries();
+        let mut entries = caster_entries(gpu);
         entries.extend([
-            uniform_entry(5),
+            gpu.params_entry(5),
             storage_entry(6, true),
             storage_entry(7, true),
             texture_entry(8),
@@ -267,7 +267,7 @@ impl PermCache {
         let params = dev.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("perm params"),
             contents: bytemuck::bytes_of(&params),
-            usage: wgpu::BufferUsages::UNIFORM,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::STORAGE,
         });
         let g = gb.bytes();
         let memory = Memory {

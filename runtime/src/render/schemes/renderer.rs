@@ -79,7 +79,7 @@ impl SchemeRenderer {
         });
         let layout = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("dvr"),
-            entries: &caster_entries(),
+            entries: &caster_entries(gpu),
         });
         let parts = CasterParts {
             label: "dvr",
