@@ -4,7 +4,10 @@
 //! 8-direction splines on D4 and D4* are heavier and live in `#[ignore]`d
 //! tests (`cargo test -p boxforge --test d4 -- --ignored`).
 
+use boxforge::build::report::Report;
+use boxforge::derive::arrangement::Arrangement;
 use boxforge::derive::Derivation;
+use boxforge::emit::{emit, EmitOptions};
 use boxforge::eval::oracle::Oracle;
 use boxforge::math::exact::Q;
 use boxforge::math::linalg::{IVec, QVec};
@@ -52,6 +55,17 @@ fn interior_point(d: &Derivation, rng: &mut Rng) -> QVec {
         }
     }
     x
+}
+
+/// Prints the seconds a check took (on drop).
+struct Timer(&'static str, String, Instant);
+fn timer(what: &'static str, name: String) -> Timer {
+    Timer(what, name, Instant::now())
+}
+impl Drop for Timer {
+    fn drop(&mut self) {
+        eprintln!("  {} {}: {:.2} s", self.1, self.0, self.2.elapsed().as_secs_f64());
+    }
 }
 
 fn filter(name: &str, lattice: &str, directions: Vec<IVec>) -> Filter {
@@ -102,6 +116,7 @@ fn derive_timed(f: &Filter) -> (Derivation, f64) {
 }
 
 fn check_against_oracle(d: &Derivation, points: usize) {
+    let _t = timer("check_against_oracle", d.filter.name.clone());
     let mut oracle = Oracle::new(&d.filter);
     let mut rng = Rng(0xB0C5 ^ d.filter.name.len() as u64);
     let data = |j: &[i64]| Q::int(data_at(7, j));
@@ -115,15 +130,199 @@ fn check_against_oracle(d: &Derivation, points: usize) {
     }
 }
 
-#[test]
-fn explore() {
-    for f in [
-        filter("z4_linear", "z4", axes(2)),
-        filter("z4_cubic", "z4", axes(4)),
-        filter("d4star_eight", "d4star", eight()),
-        filter("d4_eight", "d4", eight()),
-    ] {
-        let (d, _) = derive_timed(&f);
-        check_against_oracle(&d, 50);
+/// A random polynomial of total degree <= deg in s variables.
+fn random_poly(s: usize, deg: usize, rng: &mut Rng) -> Vec<(Vec<u32>, Q)> {
+    let mut out = Vec::new();
+    let mut e = vec![0u32; s];
+    loop {
+        if e.iter().sum::<u32>() as usize <= deg {
+            out.push((e.clone(), Q::frac(rng.range(-9, 9), rng.range(1, 5))));
+        }
+        let mut k = 0;
+        loop {
+            if k == s {
+                return out;
+            }
+            e[k] += 1;
+            if e[k] as usize <= deg {
+                break;
+            }
+            e[k] = 0;
+            k += 1;
+        }
     }
+}
+
+fn eval_poly(p: &[(Vec<u32>, Q)], x: &[Q]) -> Q {
+    p.iter().map(|(e, c)| e.iter().zip(x).fold(c.clone(), |acc, (&k, xi)| acc * xi.pow(k))).sum()
+}
+
+/// Prefiltered data of a random polynomial of degree rho - 1 is reproduced
+/// exactly; without the prefilter x_0^2 is not (when rho > 2).
+fn check_reproduction(d: &Derivation, points: usize) {
+    let _t = timer("check_reproduction", d.filter.name.clone());
+    let rho = d.facts.approximation_order;
+    let mut rng = Rng(11);
+    let p = random_poly(4, rho - 1, &mut rng);
+    let taps = d.prefilter.taps.clone();
+    let data = |j: &[i64]| -> Q {
+        taps.iter()
+            .map(|(k, w)| {
+                let pt: QVec = j.iter().zip(k).map(|(a, b)| Q::int(a - b)).collect();
+                w * &eval_poly(&p, &pt)
+            })
+            .sum()
+    };
+    for _ in 0..points {
+        let x = interior_point(d, &mut rng);
+        assert_eq!(d.eval_exact(&x, &data), eval_poly(&p, &x), "{} rho={rho}", d.filter.name);
+        assert_eq!(d.eval_exact(&x, &|_| Q::one()), Q::one(), "{}: partition of unity", d.filter.name);
+    }
+    if rho > 2 {
+        let sq = |j: &[i64]| Q::int(j[0] * j[0]);
+        let x = interior_point(d, &mut rng);
+        assert_ne!(d.eval_exact(&x, &sq), &x[0] * &x[0], "{}: x^2 without prefilter", d.filter.name);
+    }
+}
+
+/// Cells counted before cutting (Möbius sum) = cells cut; the group has
+/// the expected order; reference pieces cover the orbits.
+fn check_structure(d: &Derivation, group: usize) {
+    let _t = timer("check_structure", d.filter.name.clone());
+    assert_eq!(d.group.len(), group, "{} group", d.filter.name);
+    let frame = boxforge::derive::arrangement::Frame::new(&d.facts, &d.filter.lattice);
+    let cut = Arrangement::new(&d.facts, &d.filter.lattice).cells.len();
+    assert_eq!(frame.count_cells(), cut, "{}: counted vs cut cells", d.filter.name);
+    assert_eq!(d.arrangement.cells.len(), cut);
+    assert!(d.references.len() >= cut.div_ceil(group));
+    assert_eq!(d.estimate.cells, cut);
+}
+
+/// A 4D derivation is reported without panicking and refused by the emitter
+/// with one clear line.
+fn check_report_and_emit(d: &Derivation) {
+    let _t = timer("check_report_and_emit", d.filter.name.clone());
+    let r = Report::new(d);
+    assert_eq!(r.dimension, 4);
+    assert!(r.to_text().contains("dimension 4"));
+    assert!(!r.to_markdown().is_empty() && !r.to_json().is_empty());
+    let e = emit(d, &EmitOptions::default()).err().expect("4D emission is refused");
+    let msg = e.to_string();
+    assert!(msg.contains("4D filters are derived but not yet emitted as WGSL") && !msg.contains('\n'), "{msg}");
+}
+
+#[test]
+fn lattices_and_specs_in_4d() {
+    for (name, det) in [("z4", 1), ("d4", 2), ("d4star", 8)] {
+        let l = Lattice::builtin(name).unwrap();
+        assert_eq!((l.dim(), l.det(), l.classes().len()), (4, det, det as usize), "{name}");
+    }
+    let d4 = Lattice::builtin("d4").unwrap();
+    assert!(d4.contains(&[1, 1, 0, 0]) && d4.contains(&[1, -1, 1, 1]) && d4.contains(&[2, 0, 0, 0]));
+    assert!(!d4.contains(&[1, 0, 0, 0]) && !d4.contains(&[1, 1, 1, 0]));
+    let ds = Lattice::builtin("d4star").unwrap();
+    assert!(ds.contains(&[1, 1, 1, 1]) && ds.contains(&[-1, 1, -1, 1]) && ds.contains(&[2, 0, 0, 0]));
+    assert!(!ds.contains(&[1, 1, 0, 0]) && !ds.contains(&[1, 0, 0, 0]) && !ds.contains(&[2, 1, 1, 1]));
+    // Spec text: 4-entry directions, the names, and a generator matrix.
+    let t = "name=\"e\"\nlattice=\"d4star\"\ndirections=[[1,1,1,1],[-1,1,1,1],[1,-1,1,1],[1,1,-1,1],\
+             [-1,-1,1,1],[-1,1,-1,1],[1,-1,-1,1],[-1,-1,-1,1]]\n";
+    let f = Filter::from_toml(t, "t").unwrap();
+    assert_eq!((f.dim(), f.directions.len(), f.lattice.det()), (4, 8, 8));
+    let t = "name=\"g\"\nlattice={generators=[[2,0,0,0],[0,2,0,0],[0,0,2,0],[1,1,1,1]]}\n\
+             directions=[[2,0,0,0],[0,2,0,0],[0,0,2,0],[1,1,1,1]]\n";
+    assert_eq!(Filter::from_toml(t, "t").unwrap().lattice, Lattice::from_generators("custom", ds.generators.clone()).unwrap());
+    let bad = "name=\"b\"\nlattice=\"d4\"\ndirections=[[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]\n";
+    assert!(matches!(Filter::from_toml(bad, "t"), Err(boxforge::error::Error::NotInLattice { index: 0, .. })));
+    let mixed = "name=\"m\"\nlattice=\"z4\"\ndirections=[[1,0,0],[0,1,0,0]]\n";
+    assert!(matches!(Filter::from_toml(mixed, "t"), Err(boxforge::error::Error::MixedDimensions { .. })));
+}
+
+#[test]
+fn tensor_product_linear_and_cubic_on_z4() {
+    for (name, times, rho) in [("z4_linear", 2, 2), ("z4_cubic", 4, 4)] {
+        let (d, secs) = derive_timed(&filter(name, "z4", axes(times)));
+        assert!(secs < 5.0, "{name}: {secs:.2} s (target under 1 s)");
+        assert_eq!(d.facts.approximation_order, rho);
+        check_structure(&d, 384);
+        assert_eq!(d.max_stencil(), times.pow(4));
+        check_against_oracle(&d, 60);
+        check_reproduction(&d, 20);
+        check_report_and_emit(&d);
+    }
+}
+
+/// The centred cubic B-spline (knots -2..2).
+fn cubic_bspline(t: &Q) -> Q {
+    let a = t.abs();
+    if a < Q::one() {
+        &(&Q::frac(2, 3) - &(&a * &a)) + &(&a.pow(3) / &Q::int(2))
+    } else if a < Q::int(2) {
+        (&Q::int(2) - &a).pow(3) / Q::int(6)
+    } else {
+        Q::zero()
+    }
+}
+
+#[test]
+fn bcc7_times_cubic_bspline_in_t() {
+    // BCC x Z, the seven bcc7 directions with t = 0, and e4 four times.
+    let lattice =
+        Lattice::from_generators("bcc_x_z", vec![vec![-1, 1, 1, 0], vec![1, -1, 1, 0], vec![1, 1, -1, 0], vec![0, 0, 0, 1]])
+            .unwrap();
+    let mut dirs: Vec<IVec> = vec![
+        vec![1, 1, 1, 0],
+        vec![-1, 1, 1, 0],
+        vec![1, -1, 1, 0],
+        vec![1, 1, -1, 0],
+        vec![2, 0, 0, 0],
+        vec![0, 2, 0, 0],
+        vec![0, 0, 2, 0],
+    ];
+    dirs.extend(std::iter::repeat_n(vec![0, 0, 0, 1], 4));
+    let f = Filter::new("bcc7_t_cubic", "", lattice, dirs, Caps::default()).unwrap();
+    let (d, _) = derive_timed(&f);
+    // 48 symmetries of the cube keep BCC and the bcc7 directions, times t -> -t.
+    check_structure(&d, 96);
+    check_against_oracle(&d, 40);
+    // phi(x, t) = phi_bcc7(x) B3(t): the 3D catalog filter's own oracle times the cubic B-spline.
+    let bcc7 = boxforge::spec::catalog::get("bcc7").unwrap();
+    let mut o3 = Oracle::new(&bcc7);
+    let mut rng = Rng(3);
+    let delta = |j: &[i64]| if j.iter().all(|&x| x == 0) { Q::one() } else { Q::zero() };
+    for _ in 0..40 {
+        let x = interior_point(&d, &mut rng);
+        let want = o3.phi(&x[..3]) * cubic_bspline(&x[3]);
+        assert_eq!(d.eval_exact(&x, &delta), want, "at {x:?}");
+    }
+    check_reproduction(&d, 10);
+    check_report_and_emit(&d);
+}
+
+fn eight_direction(lattice: &str, points: usize) {
+    let (d, secs) = derive_timed(&filter(&format!("{lattice}_eight"), lattice, eight()));
+    assert!(secs < 20.0, "{lattice}: {secs:.2} s (target 10 s)");
+    check_structure(&d, 384);
+    let t = Instant::now();
+    check_against_oracle(&d, points);
+    check_reproduction(&d, points / 4);
+    eprintln!("{lattice}_eight: {points} oracle points + reproduction in {:.2} s", t.elapsed().as_secs_f64());
+    check_report_and_emit(&d);
+}
+
+#[test]
+fn eight_directions_on_d4star() {
+    eight_direction("d4star", 30);
+}
+
+#[test]
+fn eight_directions_on_d4() {
+    eight_direction("d4", 30);
+}
+
+/// The same at many more points (minutes of de Boor recursion).
+#[test]
+#[ignore]
+fn eight_directions_many_points() {
+    eight_direction("d4star", 400);
+    eight_direction("d4", 400);
 }
