@@ -326,3 +326,109 @@ fn eight_directions_many_points() {
     eight_direction("d4star", 400);
     eight_direction("d4", 400);
 }
+
+/// The plan of the emitted code (point location, fetch order) evaluated on
+/// the CPU agrees with the exact evaluator in 4D too.
+fn check_plan(d: &Derivation, points: usize) {
+    let _t = timer("check_plan", d.filter.name.clone());
+    let plan = boxforge::emit::plan::Plan::new(d);
+    assert!(plan.fetches() >= d.max_stencil());
+    let mut rng = Rng(5);
+    let data = |j: &[i64]| data_at(3, j) as f64;
+    for _ in 0..points {
+        let x: Vec<f64> = interior_point(d, &mut rng).iter().map(|q| q.to_f64()).collect();
+        let (v, g) = plan.eval_f64(d, &x, &data);
+        let (w, h) = d.eval_f64(&x, &data);
+        assert!((v - w).abs() < 1e-9 * (1.0 + w.abs()), "{} plan {v} vs {w}", d.filter.name);
+        assert!(g.iter().zip(&h).all(|(a, b)| (a - b).abs() < 1e-8 * (1.0 + b.abs())), "{}", d.filter.name);
+    }
+}
+
+#[test]
+fn plan_and_fetch_order_in_4d() {
+    for f in [filter("z4_linear", "z4", axes(2)), filter("d4star_eight", "d4star", eight())] {
+        let d = Derivation::new(&f).unwrap();
+        check_plan(&d, 30);
+    }
+}
+
+/// Seeded random direction sets (up to 6 directions, entries in -1..=1) on
+/// the three 4D lattices: counted = cut cells, values = de Boor.
+#[test]
+fn random_4d_direction_sets() {
+    let mut rng = Rng(0x4D4D);
+    let mut done = 0;
+    while done < 12 {
+        let lattice = ["z4", "d4", "d4star"][done % 3];
+        let l = Lattice::builtin(lattice).unwrap();
+        let n = rng.range(4, 6) as usize;
+        let dirs: Vec<IVec> = (0..n)
+            .map(|_| {
+                let v: IVec = (0..4).map(|_| rng.range(-1, 1)).collect();
+                // Into the lattice: double it when it is not a lattice point.
+                if l.contains(&v) {
+                    v
+                } else {
+                    v.iter().map(|x| 2 * x).collect()
+                }
+            })
+            .collect();
+        let Ok(f) = Filter::new("r", "", l, dirs, Caps::default()) else { continue };
+        let d = match Derivation::new(&f) {
+            Ok(d) => d,
+            Err(e) => {
+                eprintln!("{lattice} {:?}: {e}", f.directions);
+                continue;
+            }
+        };
+        eprintln!("{lattice} {:?}: {} cells, {} references", f.directions, d.arrangement.cells.len(), d.references.len());
+        let cut = Arrangement::new(&d.facts, &d.filter.lattice).cells.len();
+        assert_eq!(d.estimate.cells, cut, "{:?}", f.directions);
+        check_against_oracle(&d, 5);
+        done += 1;
+    }
+}
+
+/// Where the time of the 8-direction derivations goes, stage by stage
+/// (printed; run with --ignored --nocapture).
+#[test]
+#[ignore]
+fn stage_timings() {
+    use boxforge::derive::arrangement::Frame;
+    use boxforge::derive::spline::SplineFacts;
+    for lattice in ["d4star", "d4"] {
+        let f = filter(&format!("{lattice}_eight"), lattice, eight());
+        let t = Instant::now();
+        let facts = SplineFacts::new(&f);
+        let frame = Frame::new(&facts, &f.lattice);
+        let planes: usize = (0..frame.classes.len()).map(|c| frame.crossing_planes(c).len()).sum();
+        let counted = frame.count_cells();
+        let t_count = t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let cut = Arrangement::new(&facts, &f.lattice).cells.len();
+        let t_cut = t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let group = boxforge::derive::symmetry::point_group(&f);
+        let t_group = t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let pre = boxforge::derive::prefilter::derive_prefilter(&f, &group, facts.approximation_order).unwrap();
+        let t_pre = t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let d = Derivation::new(&f).unwrap();
+        let t_new = t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        d.derive_all_forms(&|_, _| {});
+        let t_forms = t.elapsed().as_secs_f64();
+        let simplices = d.references.iter().filter(|r| r.is_simplex).count();
+        eprintln!(
+            "{lattice}: {planes} crossing planes over {} cubes; count {counted} cells {t_count:.2} s; cut {cut} cells {t_cut:.2} s; \
+             group {} {t_group:.2} s; prefilter {} taps {t_pre:.2} s; Derivation::new (all of these + maps + stencils) {t_new:.2} s; \
+             forms of {} references ({simplices} simplices, {} polynomials) {t_forms:.2} s",
+            frame.classes.len(),
+            group.len(),
+            pre.taps.len(),
+            d.references.len(),
+            d.polynomials()
+        );
+    }
+}

@@ -48,14 +48,7 @@ pub fn count_regions_within(planes: &[Plane], lo: &[Q], budget: usize) -> Result
     match lo.len() {
         2 => Ok(count_2d(planes, lo)),
         3 => count_3d(planes, lo, budget),
-        _ => {
-            let n = count_any_dimension(planes, lo);
-            if n > budget {
-                Err(n)
-            } else {
-                Ok(n)
-            }
-        }
+        _ => count_any_dimension_within(planes, lo, budget),
     }
 }
 
@@ -69,6 +62,19 @@ pub fn count_regions_within(planes: &[Plane], lo: &[Q], budget: usize) -> Result
 /// cube is decided by Fourier-Motzkin elimination of strict inequalities.
 /// Used for 4D; the 2D and 3D closed forms are checked against it.
 pub fn count_any_dimension(planes: &[Plane], lo: &[Q]) -> usize {
+    match count_any_dimension_within(planes, lo, usize::MAX) {
+        Ok(n) | Err(n) => n,
+    }
+}
+
+/// [`count_any_dimension`], but `Err(lower bound)` once the flats found
+/// exceed `budget`: every flat F meeting the cube has (-1)^codim mu(F) >= 1,
+/// so regions >= 1 + flats, and a refusal costs O(budget x planes).
+///
+/// # Errors
+///
+/// `Err(lower bound)` when the count exceeds `budget` (not a crate error).
+pub fn count_any_dimension_within(planes: &[Plane], lo: &[Q], budget: usize) -> Result<usize, usize> {
     let s = lo.len();
     // Flats as reduced row echelon forms of [n | v]; index 0 is the whole space.
     let rows_of = |i: usize| -> QVec {
@@ -101,6 +107,9 @@ pub fn count_any_dimension(planes: &[Plane], lo: &[Q]) -> usize {
                     continue;
                 }
                 let g = flats.len();
+                if g >= budget {
+                    return Err(g + 1);
+                }
                 keys.insert(r.clone(), g);
                 flats.push(r);
                 codim.push(k + 1);
@@ -133,7 +142,12 @@ pub fn count_any_dimension(planes: &[Plane], lo: &[Q]) -> usize {
         mu[g] = -sum;
         regions += if codim[g] % 2 == 0 { mu[g] } else { -mu[g] };
     }
-    regions as usize
+    let regions = regions as usize;
+    if regions > budget {
+        Err(regions)
+    } else {
+        Ok(regions)
+    }
 }
 
 /// Reduced row echelon form of an affine system [A | b] (s unknowns), zero
