@@ -432,3 +432,17 @@ fn stage_timings() {
         );
     }
 }
+
+/// The cell maps (found by class and centroid since the 4D work) still send
+/// every 2D/3D catalog filter's cells onto reference pieces that agree with
+/// the de Boor recurrence.
+#[test]
+fn catalog_maps_agree_with_the_oracle() {
+    for f in boxforge::spec::catalog::all().unwrap() {
+        let d = Derivation::new(&f).unwrap();
+        if d.polynomials() > 3000 {
+            continue;
+        }
+        check_against_oracle(&d, 10);
+    }
+}
