@@ -73,7 +73,7 @@ pub enum Error {
         expected: usize,
     },
     /// A dimension the generator does not handle.
-    #[error("unsupported dimension {dim}: boxforge handles 2D and 3D (and 1D/4D only where noted); use 2 or 3 entries per vector")]
+    #[error("unsupported dimension {dim}: boxforge derives 2D, 3D and 4D filters (and emits WGSL for 2D and 3D); use 2, 3 or 4 entries per vector")]
     UnsupportedDimension {
         /// The dimension asked for (the number of lattice generators).
         dim: usize,

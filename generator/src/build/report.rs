@@ -470,8 +470,10 @@ impl Report {
                 }
             },
             shaders: vec![],
-            linear_fetch: linear_fetch_report(d),
-            linear_fetch_packed: packed_linear_fetch_report(d, &plan),
+            // Linear (hardware-filtered) fetches are a property of emitted
+            // shaders; 4D filters are derived but not emitted, so none.
+            linear_fetch: if f.dim() <= 3 { linear_fetch_report(d) } else { None },
+            linear_fetch_packed: if f.dim() <= 3 { packed_linear_fetch_report(d, &plan) } else { None },
             work: WorkReport { estimate: d.estimate, polynomials, coefficients_listed: detailed },
             derivation_seconds: None,
             cells: arr

@@ -24,7 +24,8 @@ use std::collections::{BTreeSet, HashMap};
 pub type Plane = (IVec, Q);
 
 /// Regions of the open unit cube `lo + (0,1)^s` cut by `planes` (each of
-/// which crosses the open cube), s = 2 or 3.
+/// which crosses the open cube): closed forms in 2D and 3D, the general
+/// Möbius sum ([`count_any_dimension`]) beyond.
 pub fn count_regions(planes: &[Plane], lo: &[Q]) -> usize {
     match count_regions_within(planes, lo, usize::MAX) {
         Ok(n) | Err(n) => n,
@@ -40,9 +41,6 @@ pub fn count_regions(planes: &[Plane], lo: &[Q]) -> usize {
 ///
 /// `Err(lower bound)` when the count exceeds `budget` (not a crate error).
 ///
-/// # Panics
-///
-/// Unless `lo` is 2D or 3D.
 pub fn count_regions_within(planes: &[Plane], lo: &[Q], budget: usize) -> Result<usize, usize> {
     if 1 + planes.len() > budget {
         return Err(1 + planes.len());
@@ -50,8 +48,177 @@ pub fn count_regions_within(planes: &[Plane], lo: &[Q], budget: usize) -> Result
     match lo.len() {
         2 => Ok(count_2d(planes, lo)),
         3 => count_3d(planes, lo, budget),
-        s => panic!("cell counting supports 2D and 3D, not {s}D"),
+        _ => count_any_dimension_within(planes, lo, budget),
     }
+}
+
+/// Regions of the open cube `lo + (0,1)^s` in any dimension, by the same
+/// theorem as the 2D and 3D formulas written out generally: the flats
+/// (non-empty intersections of the planes that meet the open cube) are
+/// enumerated codimension by codimension, each with the flats that cover
+/// it, the Möbius function mu(V, F) follows from mu(F) = -sum of mu over
+/// the flats strictly above F, and regions = sum over flats of |mu| =
+/// sum of (-1)^codim mu. Exact (rationals); whether a flat meets the open
+/// cube is decided by Fourier-Motzkin elimination of strict inequalities.
+/// Used for 4D; the 2D and 3D closed forms are checked against it.
+pub fn count_any_dimension(planes: &[Plane], lo: &[Q]) -> usize {
+    match count_any_dimension_within(planes, lo, usize::MAX) {
+        Ok(n) | Err(n) => n,
+    }
+}
+
+/// [`count_any_dimension`], but `Err(lower bound)` once the flats found
+/// exceed `budget`: every flat F meeting the cube has (-1)^codim mu(F) >= 1,
+/// so regions >= 1 + flats, and a refusal costs O(budget x planes).
+///
+/// # Errors
+///
+/// `Err(lower bound)` when the count exceeds `budget` (not a crate error).
+pub fn count_any_dimension_within(planes: &[Plane], lo: &[Q], budget: usize) -> Result<usize, usize> {
+    let s = lo.len();
+    // Flats as reduced row echelon forms of [n | v]; index 0 is the whole space.
+    let rows_of = |i: usize| -> QVec {
+        let (n, v) = &planes[i];
+        n.iter().map(|&x| Q::int(x)).chain(std::iter::once(v.clone())).collect()
+    };
+    let mut keys: HashMap<Vec<QVec>, usize> = HashMap::new();
+    let mut flats: Vec<Vec<QVec>> = vec![vec![]];
+    let mut codim: Vec<usize> = vec![0];
+    let mut parents: Vec<Vec<usize>> = vec![vec![]];
+    let mut level: Vec<usize> = vec![0];
+    for k in 0..s {
+        let mut next: Vec<usize> = Vec::new();
+        for &f in &level {
+            for j in 0..planes.len() {
+                let mut rows = flats[f].clone();
+                rows.push(rows_of(j));
+                let Some(r) = rref_affine(rows, s) else { continue }; // parallel: empty
+                if r.len() != k + 1 {
+                    continue; // the plane contains the flat
+                }
+                if let Some(&g) = keys.get(&r) {
+                    if !parents[g].contains(&f) {
+                        parents[g].push(f);
+                    }
+                    continue;
+                }
+                // Codimension 1: the planes cross the open cube (precondition).
+                if k > 0 && !flat_meets_open_cube(&r, lo) {
+                    continue;
+                }
+                let g = flats.len();
+                if g >= budget {
+                    return Err(g + 1);
+                }
+                keys.insert(r.clone(), g);
+                flats.push(r);
+                codim.push(k + 1);
+                parents.push(vec![f]);
+                next.push(g);
+            }
+        }
+        level = next;
+    }
+    // mu over the flats in order of codimension (parents come first).
+    let mut mu: Vec<i64> = vec![0; flats.len()];
+    mu[0] = 1;
+    let mut regions: i64 = 1;
+    let mut seen: Vec<usize> = vec![usize::MAX; flats.len()];
+    for g in 1..flats.len() {
+        let mut stack: Vec<usize> = parents[g].clone();
+        let mut sum = 0i64;
+        for &p in &stack {
+            seen[p] = g;
+        }
+        while let Some(p) = stack.pop() {
+            sum += mu[p];
+            for &q in &parents[p] {
+                if seen[q] != g {
+                    seen[q] = g;
+                    stack.push(q);
+                }
+            }
+        }
+        mu[g] = -sum;
+        regions += if codim[g] % 2 == 0 { mu[g] } else { -mu[g] };
+    }
+    let regions = regions as usize;
+    if regions > budget {
+        Err(regions)
+    } else {
+        Ok(regions)
+    }
+}
+
+/// Reduced row echelon form of an affine system [A | b] (s unknowns), zero
+/// rows dropped; None when it is inconsistent (0 = 1).
+fn rref_affine(mut m: Vec<QVec>, s: usize) -> Option<Vec<QVec>> {
+    let mut r = 0;
+    for c in 0..=s {
+        let Some(p) = (r..m.len()).find(|&i| !m[i][c].is_zero()) else { continue };
+        if c == s {
+            return None;
+        }
+        m.swap(r, p);
+        let inv = m[r][c].recip();
+        m[r] = m[r].iter().map(|x| x * &inv).collect();
+        for i in 0..m.len() {
+            if i != r && !m[i][c].is_zero() {
+                let f = m[i][c].clone();
+                let pr = m[r].clone();
+                for (x, y) in m[i].iter_mut().zip(&pr) {
+                    *x -= &(&f * y);
+                }
+            }
+        }
+        r += 1;
+    }
+    m.truncate(r);
+    Some(m)
+}
+
+/// Does the affine flat (RREF rows [A | b]) meet the open cube lo + (0,1)^s?
+/// The pivot unknowns are written in the free ones, the 2s strict bounds
+/// become strict inequalities a . y < c in the free unknowns, and
+/// Fourier-Motzkin eliminates them (strict stays strict).
+fn flat_meets_open_cube(rows: &[QVec], lo: &[Q]) -> bool {
+    let s = lo.len();
+    let pivots: Vec<usize> =
+        rows.iter().map(|r| r.iter().position(|x| !x.is_zero()).expect("RREF rows are non-zero")).collect();
+    let free: Vec<usize> = (0..s).filter(|c| !pivots.contains(c)).collect();
+    // x_i = const + coef . y
+    let mut ineqs: Vec<(QVec, Q)> = Vec::new();
+    for i in 0..s {
+        let (coef, cst): (QVec, Q) = match pivots.iter().position(|&p| p == i) {
+            Some(r) => (free.iter().map(|&f| -rows[r][f].clone()).collect(), rows[r][s].clone()),
+            None => (free.iter().map(|&f| if f == i { Q::one() } else { Q::zero() }).collect(), Q::zero()),
+        };
+        // lo < cst + coef.y  <=>  -coef.y < cst - lo
+        ineqs.push((coef.iter().map(|x| -x.clone()).collect(), &cst - &lo[i]));
+        // cst + coef.y < lo + 1  <=>  coef.y < lo + 1 - cst
+        ineqs.push((coef, &(&lo[i] + &Q::one()) - &cst));
+    }
+    for k in 0..free.len() {
+        let (mut pos, mut neg, mut rest) = (Vec::new(), Vec::new(), Vec::new());
+        for (a, c) in ineqs {
+            match a[k].signum() {
+                1 => pos.push((a, c)),
+                -1 => neg.push((a, c)),
+                _ => rest.push((a, c)),
+            }
+        }
+        for (ap, cp) in &pos {
+            for (an, cn) in &neg {
+                let (wp, wn) = (-an[k].clone(), ap[k].clone());
+                let a: QVec = ap.iter().zip(an).map(|(x, y)| &(x * &wp) + &(y * &wn)).collect();
+                rest.push((a, &(cp * &wp) + &(cn * &wn)));
+            }
+        }
+        rest.sort();
+        rest.dedup();
+        ineqs = rest;
+    }
+    ineqs.iter().all(|(_, c)| c.is_positive())
 }
 
 fn inside(p: &[Q], lo: &[Q]) -> bool {
@@ -205,6 +372,58 @@ mod tests {
         // 2D: the square's two diagonals: 4 triangles.
         let lo2 = vec![Q::zero(); 2];
         assert_eq!(count_regions(&[plane(&[1, -1], Q::zero()), plane(&[1, 1], Q::one())], &lo2), 4);
+        // The general count agrees on each of these.
+        assert_eq!(count_any_dimension(&three, &lo), 8);
+        assert_eq!(count_any_dimension(&pencil, &lo), 12);
+        assert_eq!(count_any_dimension(&kuhn, &lo), 6);
+        // 4D: the Kuhn split of the 4-cube by x_i = x_j: 4! = 24 simplices;
+        // the four mid-planes: 16 orthants; a plane missing the cube adds nothing.
+        let lo4 = vec![Q::zero(); 4];
+        let mut kuhn4 = Vec::new();
+        for i in 0..4 {
+            for j in i + 1..4 {
+                let mut n = vec![0; 4];
+                n[i] = 1;
+                n[j] = -1;
+                kuhn4.push(plane(&n, Q::zero()));
+            }
+        }
+        assert_eq!(count_regions(&kuhn4, &lo4), 24);
+        let mids: Vec<Plane> = (0..4)
+            .map(|i| {
+                let mut n = vec![0; 4];
+                n[i] = 1;
+                plane(&n, h.clone())
+            })
+            .collect();
+        assert_eq!(count_regions(&mids, &lo4), 16);
+        let mut both = kuhn4.clone();
+        both.extend(mids);
+        // x_i = x_j and x_i = 1/2: each of the 24 simplices 0 < x_p1 < ... < x_p4 < 1 is cut
+        // by the mid-planes into the 5 positions of 1/2 among the sorted coordinates.
+        assert_eq!(count_regions(&both, &lo4), 120);
+    }
+
+    /// The closed 2D/3D formulas and the general count agree on the catalog
+    /// and on random specs (two independent counts of the same regions).
+    #[test]
+    fn general_count_agrees_with_the_closed_forms() {
+        use crate::derive::arrangement::Frame;
+        use crate::derive::spline::SplineFacts;
+        let mut filters = crate::spec::catalog::all().unwrap();
+        filters.extend(crate::spec::random::benchmark_specs(5, 30));
+        for f in &filters {
+            let facts = SplineFacts::new(f);
+            let frame = Frame::new(&facts, &f.lattice);
+            for ci in 0..frame.classes.len() {
+                let planes = frame.crossing_planes(ci);
+                if planes.len() > 40 {
+                    continue;
+                }
+                let lo = frame.cube_lower_corner(ci);
+                assert_eq!(count_regions(&planes, &lo), count_any_dimension(&planes, &lo), "{}", f.name);
+            }
+        }
     }
 
     /// The count equals the number of cells that cutting produces, on the

@@ -309,21 +309,29 @@ fn reference_piece(arr: &Arrangement, facts: &SplineFacts, lattice: &Lattice, ce
 /// orbit. `reference` holds a cell index here; the caller renumbers.
 fn cell_maps(arr: &Arrangement, lattice: &Lattice, group: &[SignedPerm]) -> Vec<CellMap> {
     let s = arr.grid_offset.len();
-    let index: HashMap<(usize, Vec<QVec>), usize> =
-        arr.cells.iter().enumerate().map(|(i, c)| ((c.class, c.polytope.vertices.clone()), i)).collect();
+    // A cell is found by its class and its vertex centroid (an interior
+    // point, kept by the affine map g): one matrix-vector product per
+    // symmetry instead of one per vertex and a sort.
+    let centroid = |vs: &[QVec]| -> QVec {
+        let n = Q::int(vs.len() as i64);
+        (0..s).map(|i| vs.iter().map(|v| v[i].clone()).sum::<Q>() / n.clone()).collect()
+    };
+    let index: HashMap<(usize, QVec), usize> =
+        arr.cells.iter().enumerate().map(|(i, c)| ((c.class, centroid(&c.polytope.vertices)), i)).collect();
     let o = &arr.grid_offset;
+    let rqs: Vec<Vec<QVec>> = group.iter().map(|r| r.iter().map(|row| to_q(row)).collect()).collect();
     arr.cells
         .par_iter()
         .map(|c| {
             let z = &arr.classes[c.class];
+            let mid = centroid(&c.polytope.vertices);
             let mut best: Option<CellMap> = None;
             let mut best_cell = usize::MAX;
-            for r in group {
-                let rq: Vec<QVec> = r.iter().map(|row| to_q(row)).collect();
+            for (r, rq) in group.iter().zip(&rqs) {
                 // Image cube lower corner: componentwise min of R(o+z) and R(o+z+1).
                 let lo: QVec = (0..s).map(|k| &o[k] + &Q::int(z[k])).collect();
                 let hi: QVec = lo.iter().map(|x| x + &Q::one()).collect();
-                let (a, b) = (mat_vec_q(&rq, &lo), mat_vec_q(&rq, &hi));
+                let (a, b) = (mat_vec_q(rq, &lo), mat_vec_q(rq, &hi));
                 let img_lo: QVec = a.iter().zip(&b).map(|(x, y)| x.clone().min(y.clone())).collect();
                 let zq = sub_q(&img_lo, o);
                 // The group keeps the grid (R o - o is integral, see Derivation::new).
@@ -331,11 +339,8 @@ fn cell_maps(arr: &Arrangement, lattice: &Lattice, group: &[SignedPerm]) -> Vec<
                     zq.iter().map(|x| x.to_i64().expect("a grid-keeping R maps corners to integers")).collect();
                 let (ci, l) = arr.locate_cube(lattice, &zi);
                 let t: IVec = l.iter().map(|x| -x).collect();
-                let tq = to_q(&t);
-                let mut verts: Vec<QVec> =
-                    c.polytope.vertices.iter().map(|v| crate::math::linalg::add_q(&mat_vec_q(&rq, v), &tq)).collect();
-                verts.sort();
-                let j = *index.get(&(ci, verts)).expect("symmetries map cells onto cells");
+                let image = crate::math::linalg::add_q(&mat_vec_q(rq, &mid), &to_q(&t));
+                let j = *index.get(&(ci, image)).expect("symmetries map cells onto cells");
                 if j < best_cell {
                     best_cell = j;
                     best = Some(CellMap { reference: j, rotation: r.clone(), translation: t });

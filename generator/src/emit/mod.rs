@@ -367,12 +367,22 @@ pub fn file_name(filter: &str, layout: Layout, variant: Variant) -> String {
 /// # Errors
 ///
 /// [`Error::EmitCap`] when the derivation has more polynomials than
-/// `caps.max_emitted_polynomials`; [`Error::Unsupported`] for linear fetches
+/// `caps.max_emitted_polynomials`; [`Error::Unsupported`] for a 4D derivation
+/// (derived, not yet emitted) and for linear fetches
 /// where they do not apply (the naive variant; the embedded layout outside the
 /// one-coset tensor-product case); [`Error::Spec`] when other options cannot be
 /// met (`form = "factored"` on a filter that does not factor, the packed layout
 /// on a lattice without 2Z^s) or a template fails to render.
 pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
+    if d.facts.dim > 3 {
+        return Err(Error::Unsupported {
+            origin: format!("filter {}", d.filter.name),
+            message: format!(
+                "{}D filters are derived but not yet emitted as WGSL (inspect the derivation instead)",
+                d.facts.dim
+            ),
+        });
+    }
     let polynomials = d.polynomials();
     if polynomials > d.filter.caps.max_emitted_polynomials {
         return Err(Error::EmitCap {

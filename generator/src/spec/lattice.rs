@@ -18,7 +18,7 @@ pub struct Lattice {
 }
 
 /// Names of the built-in lattices.
-pub const BUILTIN_LATTICES: &[&str] = &["cc", "bcc", "fcc", "square", "quincunx"];
+pub const BUILTIN_LATTICES: &[&str] = &["cc", "bcc", "fcc", "square", "quincunx", "z4", "d4", "d4star"];
 
 /// Largest |entry| of a lattice generator (directions have the same bound).
 pub const MAX_GENERATOR_ENTRY: i64 = 64;
@@ -36,6 +36,12 @@ impl Lattice {
             "fcc" => vec![vec![0, 1, 1], vec![1, 0, 1], vec![1, 1, 0]],
             "square" => vec![vec![1, 0], vec![0, 1]],
             "quincunx" => vec![vec![1, 1], vec![1, -1]],
+            // 4D: the Cartesian lattice, the checkerboard lattice D4 (even
+            // coordinate sum) and its dual D4* scaled by 2 (2Z^4 and 2Z^4 +
+            // (1,1,1,1), like BCC in 3D).
+            "z4" => vec![vec![1, 0, 0, 0], vec![0, 1, 0, 0], vec![0, 0, 1, 0], vec![0, 0, 0, 1]],
+            "d4" => vec![vec![1, 1, 0, 0], vec![1, -1, 0, 0], vec![0, 1, -1, 0], vec![0, 0, 1, -1]],
+            "d4star" => vec![vec![2, 0, 0, 0], vec![0, 2, 0, 0], vec![0, 0, 2, 0], vec![1, 1, 1, 1]],
             _ => return Err(Error::UnknownLattice { name: name.to_string() }),
         };
         Lattice::from_generators(name, gens)

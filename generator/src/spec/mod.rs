@@ -212,13 +212,14 @@ impl Filter {
     ///
     /// # Errors
     ///
-    /// [`Error::UnsupportedDimension`] unless the lattice is 2D or 3D; [`Error::Spec`] for a
+    /// [`Error::UnsupportedDimension`] unless the lattice is 2D, 3D or 4D (4D is
+    /// derived but not emitted as WGSL); [`Error::Spec`] for a
     /// name that is not a WGSL-safe identifier or a direction entry beyond ±64;
     /// [`Error::TooManyDirections`], [`Error::MixedDimensions`], [`Error::ZeroDirection`],
     /// [`Error::RankDeficient`], [`Error::NotInLattice`] and [`Error::DegreeCap`].
     pub fn new(name: &str, description: &str, lattice: Lattice, directions: Vec<IVec>, caps: Caps) -> Result<Filter> {
         let dim = lattice.dim();
-        if !(2..=3).contains(&dim) {
+        if !(2..=4).contains(&dim) {
             return Err(Error::UnsupportedDimension { dim });
         }
         if name.trim().is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
