@@ -206,7 +206,7 @@ fn check_report_and_emit(d: &Derivation) {
     assert_eq!(r.dimension, 4);
     assert!(r.to_text().contains("dimension 4"));
     assert!(!r.to_markdown().is_empty() && !r.to_json().is_empty());
-    let e = emit(d, &EmitOptions::default()).err().expect("4D emission is refused");
+    let e = emit(d, &EmitOptions::default()).expect_err("4D emission is refused");
     let msg = e.to_string();
     assert!(msg.contains("4D filters are derived but not yet emitted as WGSL") && !msg.contains('\n'), "{msg}");
 }

@@ -140,7 +140,7 @@ pub fn count_any_dimension_within(planes: &[Plane], lo: &[Q], budget: usize) -> 
             }
         }
         mu[g] = -sum;
-        regions += if codim[g] % 2 == 0 { mu[g] } else { -mu[g] };
+        regions += if codim[g].is_multiple_of(2) { mu[g] } else { -mu[g] };
     }
     let regions = regions as usize;
     if regions > budget {
