@@ -230,7 +230,10 @@ fn lattices_and_specs_in_4d() {
     assert_eq!((f.dim(), f.directions.len(), f.lattice.det()), (4, 8, 8));
     let t = "name=\"g\"\nlattice={generators=[[2,0,0,0],[0,2,0,0],[0,0,2,0],[1,1,1,1]]}\n\
              directions=[[2,0,0,0],[0,2,0,0],[0,0,2,0],[1,1,1,1]]\n";
-    assert_eq!(Filter::from_toml(t, "t").unwrap().lattice, Lattice::from_generators("custom", ds.generators.clone()).unwrap());
+    assert_eq!(
+        Filter::from_toml(t, "t").unwrap().lattice,
+        Lattice::from_generators("custom", ds.generators.clone()).unwrap()
+    );
     let bad = "name=\"b\"\nlattice=\"d4\"\ndirections=[[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]\n";
     assert!(matches!(Filter::from_toml(bad, "t"), Err(boxforge::error::Error::NotInLattice { index: 0, .. })));
     let mixed = "name=\"m\"\nlattice=\"z4\"\ndirections=[[1,0,0],[0,1,0,0]]\n";
@@ -266,9 +269,11 @@ fn cubic_bspline(t: &Q) -> Q {
 #[test]
 fn bcc7_times_cubic_bspline_in_t() {
     // BCC x Z, the seven bcc7 directions with t = 0, and e4 four times.
-    let lattice =
-        Lattice::from_generators("bcc_x_z", vec![vec![-1, 1, 1, 0], vec![1, -1, 1, 0], vec![1, 1, -1, 0], vec![0, 0, 0, 1]])
-            .unwrap();
+    let lattice = Lattice::from_generators(
+        "bcc_x_z",
+        vec![vec![-1, 1, 1, 0], vec![1, -1, 1, 0], vec![1, 1, -1, 0], vec![0, 0, 0, 1]],
+    )
+    .unwrap();
     let mut dirs: Vec<IVec> = vec![
         vec![1, 1, 1, 0],
         vec![-1, 1, 1, 0],
@@ -381,7 +386,12 @@ fn random_4d_direction_sets() {
                 continue;
             }
         };
-        eprintln!("{lattice} {:?}: {} cells, {} references", f.directions, d.arrangement.cells.len(), d.references.len());
+        eprintln!(
+            "{lattice} {:?}: {} cells, {} references",
+            f.directions,
+            d.arrangement.cells.len(),
+            d.references.len()
+        );
         let cut = Arrangement::new(&d.facts, &d.filter.lattice).cells.len();
         assert_eq!(d.estimate.cells, cut, "{:?}", f.directions);
         check_against_oracle(&d, 5);
