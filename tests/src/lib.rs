@@ -70,3 +70,31 @@ pub fn all_catalog() -> Vec<Derivation> {
 pub fn ivec_to_q(v: &IVec) -> QVec {
     v.iter().map(|&x| Q::int(x)).collect()
 }
+
+/// A random polynomial of total degree <= deg in s variables: (exponents, coefficient).
+pub fn random_poly(s: usize, deg: usize, rng: &mut Rng) -> Vec<(Vec<u32>, Q)> {
+    let mut out = Vec::new();
+    let mut e = vec![0u32; s];
+    loop {
+        if e.iter().sum::<u32>() as usize <= deg {
+            out.push((e.clone(), Q::frac(rng.range(-9, 9), rng.range(1, 5))));
+        }
+        let mut k = 0;
+        loop {
+            if k == s {
+                return out;
+            }
+            e[k] += 1;
+            if e[k] as usize <= deg {
+                break;
+            }
+            e[k] = 0;
+            k += 1;
+        }
+    }
+}
+
+/// The value of a polynomial of [`random_poly`]'s shape at x.
+pub fn eval_poly(p: &[(Vec<u32>, Q)], x: &[Q]) -> Q {
+    p.iter().map(|(e, c)| e.iter().zip(x).fold(c.clone(), |acc, (&k, xi)| acc * xi.pow(k))).sum()
+}

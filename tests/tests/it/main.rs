@@ -1,5 +1,6 @@
 //! Cross-crate integration tests in one binary.
 
+mod d4;
 mod fuzz_corpus;
 mod import_cycles;
 mod literature;

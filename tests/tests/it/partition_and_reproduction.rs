@@ -3,34 +3,7 @@
 
 use boxforge::math::exact::Q;
 use boxforge::math::linalg::QVec;
-use boxforge_tests::{all_catalog, random_interior_point, Rng};
-
-/// A random polynomial of total degree <= deg in s variables: (exponents, coefficient).
-fn random_poly(s: usize, deg: usize, rng: &mut Rng) -> Vec<(Vec<u32>, Q)> {
-    let mut out = Vec::new();
-    let mut e = vec![0u32; s];
-    loop {
-        if e.iter().sum::<u32>() as usize <= deg {
-            out.push((e.clone(), Q::frac(rng.range(-9, 9), rng.range(1, 5))));
-        }
-        let mut k = 0;
-        loop {
-            if k == s {
-                return out;
-            }
-            e[k] += 1;
-            if e[k] as usize <= deg {
-                break;
-            }
-            e[k] = 0;
-            k += 1;
-        }
-    }
-}
-
-fn eval_poly(p: &[(Vec<u32>, Q)], x: &[Q]) -> Q {
-    p.iter().map(|(e, c)| e.iter().zip(x).fold(c.clone(), |acc, (&k, xi)| acc * xi.pow(k))).sum()
-}
+use boxforge_tests::{all_catalog, eval_poly, random_interior_point, random_poly, Rng};
 
 #[test]
 fn partition_of_unity() {

@@ -2,7 +2,7 @@
 //! splines, checked exactly against the independent de Boor recurrence
 //! (piece values) and by prefiltered polynomial reproduction. The
 //! 8-direction splines on D4 and D4* are heavier and live in `#[ignore]`d
-//! tests (`cargo test -p boxforge --test d4 -- --ignored`).
+//! tests (`cargo test -p boxforge-tests --test it d4 -- --ignored`).
 
 use boxforge::build::report::Report;
 use boxforge::derive::arrangement::Arrangement;
@@ -13,49 +13,8 @@ use boxforge::math::exact::Q;
 use boxforge::math::linalg::{IVec, QVec};
 use boxforge::spec::lattice::Lattice;
 use boxforge::spec::{Caps, Filter};
+use boxforge_tests::{data_at, eval_poly, random_interior_point, random_poly, Rng};
 use std::time::Instant;
-
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        self.0
-    }
-    fn range(&mut self, lo: i64, hi: i64) -> i64 {
-        lo + (self.next() % (hi - lo + 1) as u64) as i64
-    }
-}
-
-fn data_at(seed: u64, j: &[i64]) -> i64 {
-    let mut h = seed ^ 0x1234_5678;
-    for &x in j {
-        h = (h ^ (x as u64)).wrapping_mul(0x9E37_79B9_7F4A_7C15);
-        h ^= h >> 29;
-    }
-    (h % 101) as i64 - 50
-}
-
-/// A point strictly inside a random cell, moved by a random lattice vector.
-fn interior_point(d: &Derivation, rng: &mut Rng) -> QVec {
-    let cells = &d.arrangement.cells;
-    let cell = &cells[rng.range(0, cells.len() as i64 - 1) as usize];
-    let verts = &cell.polytope.vertices;
-    let weights: Vec<i64> = verts.iter().map(|_| rng.range(1, 97)).collect();
-    let total: i64 = weights.iter().sum();
-    let s = verts[0].len();
-    let mut x: QVec = (0..s)
-        .map(|i| verts.iter().zip(&weights).map(|(v, &w)| &v[i] * &Q::int(w)).sum::<Q>() / Q::int(total))
-        .collect();
-    for g in &d.filter.lattice.generators {
-        let k = rng.range(-2, 2);
-        for i in 0..s {
-            x[i] = &x[i] + &Q::int(k * g[i]);
-        }
-    }
-    x
-}
 
 /// Prints the seconds a check took (on drop).
 struct Timer(&'static str, String, Instant);
@@ -121,40 +80,13 @@ fn check_against_oracle(d: &Derivation, points: usize) {
     let mut rng = Rng(0xB0C5 ^ d.filter.name.len() as u64);
     let data = |j: &[i64]| Q::int(data_at(7, j));
     for _ in 0..points {
-        let x = interior_point(d, &mut rng);
+        let x = random_interior_point(d, &mut rng);
         let ours = d.eval_exact(&x, &data);
         assert_eq!(ours, oracle.spline_value(&x, &data), "{} at {x:?}", d.filter.name);
         if let Some(bb) = d.eval_exact_bb(&x, &data) {
             assert_eq!(bb, ours, "{}: BB form", d.filter.name);
         }
     }
-}
-
-/// A random polynomial of total degree <= deg in s variables.
-fn random_poly(s: usize, deg: usize, rng: &mut Rng) -> Vec<(Vec<u32>, Q)> {
-    let mut out = Vec::new();
-    let mut e = vec![0u32; s];
-    loop {
-        if e.iter().sum::<u32>() as usize <= deg {
-            out.push((e.clone(), Q::frac(rng.range(-9, 9), rng.range(1, 5))));
-        }
-        let mut k = 0;
-        loop {
-            if k == s {
-                return out;
-            }
-            e[k] += 1;
-            if e[k] as usize <= deg {
-                break;
-            }
-            e[k] = 0;
-            k += 1;
-        }
-    }
-}
-
-fn eval_poly(p: &[(Vec<u32>, Q)], x: &[Q]) -> Q {
-    p.iter().map(|(e, c)| e.iter().zip(x).fold(c.clone(), |acc, (&k, xi)| acc * xi.pow(k))).sum()
 }
 
 /// Prefiltered data of a random polynomial of degree rho - 1 is reproduced
@@ -174,13 +106,13 @@ fn check_reproduction(d: &Derivation, points: usize) {
             .sum()
     };
     for _ in 0..points {
-        let x = interior_point(d, &mut rng);
+        let x = random_interior_point(d, &mut rng);
         assert_eq!(d.eval_exact(&x, &data), eval_poly(&p, &x), "{} rho={rho}", d.filter.name);
         assert_eq!(d.eval_exact(&x, &|_| Q::one()), Q::one(), "{}: partition of unity", d.filter.name);
     }
     if rho > 2 {
         let sq = |j: &[i64]| Q::int(j[0] * j[0]);
-        let x = interior_point(d, &mut rng);
+        let x = random_interior_point(d, &mut rng);
         assert_ne!(d.eval_exact(&x, &sq), &x[0] * &x[0], "{}: x^2 without prefilter", d.filter.name);
     }
 }
@@ -295,7 +227,7 @@ fn bcc7_times_cubic_bspline_in_t() {
     let mut rng = Rng(3);
     let delta = |j: &[i64]| if j.iter().all(|&x| x == 0) { Q::one() } else { Q::zero() };
     for _ in 0..40 {
-        let x = interior_point(&d, &mut rng);
+        let x = random_interior_point(&d, &mut rng);
         let want = o3.phi(&x[..3]) * cubic_bspline(&x[3]);
         assert_eq!(d.eval_exact(&x, &delta), want, "at {x:?}");
     }
@@ -341,7 +273,7 @@ fn check_plan(d: &Derivation, points: usize) {
     let mut rng = Rng(5);
     let data = |j: &[i64]| data_at(3, j) as f64;
     for _ in 0..points {
-        let x: Vec<f64> = interior_point(d, &mut rng).iter().map(|q| q.to_f64()).collect();
+        let x: Vec<f64> = random_interior_point(d, &mut rng).iter().map(|q| q.to_f64()).collect();
         let (v, g) = plan.eval_f64(d, &x, &data);
         let (w, h) = d.eval_f64(&x, &data);
         assert!((v - w).abs() < 1e-9 * (1.0 + w.abs()), "{} plan {v} vs {w}", d.filter.name);
