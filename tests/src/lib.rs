@@ -98,3 +98,18 @@ pub fn random_poly(s: usize, deg: usize, rng: &mut Rng) -> Vec<(Vec<u32>, Q)> {
 pub fn eval_poly(p: &[(Vec<u32>, Q)], x: &[Q]) -> Q {
     p.iter().map(|(e, c)| e.iter().zip(x).fold(c.clone(), |acc, (&k, xi)| acc * xi.pow(k))).sum()
 }
+
+/// The samples of polynomial `p` after `d`'s quasi-interpolation
+/// prefilter: sample j = sum over taps (k, w) of w p(j - k).
+pub fn prefiltered<'a>(d: &'a Derivation, p: &'a [(Vec<u32>, Q)]) -> impl Fn(&[i64]) -> Q + 'a {
+    move |j: &[i64]| -> Q {
+        d.prefilter
+            .taps
+            .iter()
+            .map(|(k, w)| {
+                let pt: QVec = j.iter().zip(k).map(|(a, b)| Q::int(a - b)).collect();
+                w * &eval_poly(p, &pt)
+            })
+            .sum()
+    }
+}

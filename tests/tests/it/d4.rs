@@ -10,10 +10,10 @@ use boxforge::derive::Derivation;
 use boxforge::emit::{emit, EmitOptions};
 use boxforge::eval::oracle::Oracle;
 use boxforge::math::exact::Q;
-use boxforge::math::linalg::{IVec, QVec};
+use boxforge::math::linalg::IVec;
 use boxforge::spec::lattice::Lattice;
 use boxforge::spec::{Caps, Filter};
-use boxforge_tests::{data_at, eval_poly, random_interior_point, random_poly, Rng};
+use boxforge_tests::{data_at, eval_poly, prefiltered, random_interior_point, random_poly, Rng};
 use std::time::Instant;
 
 /// Prints the seconds a check took (on drop).
@@ -96,15 +96,7 @@ fn check_reproduction(d: &Derivation, points: usize) {
     let rho = d.facts.approximation_order;
     let mut rng = Rng(11);
     let p = random_poly(4, rho - 1, &mut rng);
-    let taps = d.prefilter.taps.clone();
-    let data = |j: &[i64]| -> Q {
-        taps.iter()
-            .map(|(k, w)| {
-                let pt: QVec = j.iter().zip(k).map(|(a, b)| Q::int(a - b)).collect();
-                w * &eval_poly(&p, &pt)
-            })
-            .sum()
-    };
+    let data = prefiltered(d, &p);
     for _ in 0..points {
         let x = random_interior_point(d, &mut rng);
         assert_eq!(d.eval_exact(&x, &data), eval_poly(&p, &x), "{} rho={rho}", d.filter.name);

@@ -2,8 +2,7 @@
 //! below the approximation order after prefiltering, for every catalog filter.
 
 use boxforge::math::exact::Q;
-use boxforge::math::linalg::QVec;
-use boxforge_tests::{all_catalog, eval_poly, random_interior_point, random_poly, Rng};
+use boxforge_tests::{all_catalog, eval_poly, prefiltered, random_interior_point, random_poly, Rng};
 
 #[test]
 fn partition_of_unity() {
@@ -24,15 +23,7 @@ fn prefiltered_polynomials_of_degree_below_rho_are_reproduced() {
         let rho = d.facts.approximation_order;
         let mut rng = Rng(11);
         let p = random_poly(d.facts.dim, rho - 1, &mut rng);
-        let taps = d.prefilter.taps.clone();
-        let data = |j: &[i64]| -> Q {
-            taps.iter()
-                .map(|(k, w)| {
-                    let pt: QVec = j.iter().zip(k).map(|(a, b)| Q::int(a - b)).collect();
-                    w * &eval_poly(&p, &pt)
-                })
-                .sum()
-        };
+        let data = prefiltered(&d, &p);
         for _ in 0..40 {
             let x = random_interior_point(&d, &mut rng);
             assert_eq!(d.eval_exact(&x, &data), eval_poly(&p, &x), "{} rho={rho}", d.filter.name);
