@@ -9,6 +9,7 @@ use boxforge::derive::Derivation;
 use boxforge::emit::{emit, Bounds, EmitOptions, EvalForm, FetchMode, Layout, Variant};
 use serde::Serialize;
 
+pub mod four;
 pub mod hessian;
 pub mod kernel;
 pub mod target;
@@ -21,7 +22,7 @@ pub enum VerifyError {
     /// The generator refused the module (its message names the reason).
     #[error("{0}")]
     Emit(String),
-    #[error("{filter} is {dim}D: the runtime verifies 3D filters (2D shaders are checked by naga only)")]
+    #[error("{filter} is {dim}D: the runtime verifies 3D filters here, and 4D ones as WGSL (without --target); 2D shaders are checked by naga only")]
     NotThreeD { filter: String, dim: usize },
     #[error("the points count must be at least 1")]
     NoPoints,
@@ -450,6 +451,14 @@ pub fn verify_fetch(
     points: usize,
     seed: u64,
 ) -> Result<VerifyReport, VerifyError> {
+    if d.facts.dim == 4 {
+        if fetch == FetchMode::Linear {
+            return Err(VerifyError::Emit(
+                "4D samples are a storage buffer, which no sampler filters: use --fetch exact".into(),
+            ));
+        }
+        return four::verify4(gpu, d, layout, variant, form, bounds, points, seed);
+    }
     check_request(d, points)?;
     let vol = random_volume(d, seed);
     let dv = device_volume(gpu, d, &vol, layout, fetch)?;

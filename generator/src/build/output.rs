@@ -106,6 +106,12 @@ pub fn translated_files(
 
 /// Every layout and variant.
 pub const ALL_LAYOUTS: [Layout; 4] = [Layout::Embedded, Layout::Packed, Layout::Bricked, Layout::BrickedPacked];
+/// The layouts `generate` writes for a filter of dimension `dim` unless told
+/// otherwise: all four up to 3D; embedded and packed in 4D (4D samples are a
+/// storage buffer, which the bricked layouts' texture pool and page table are not).
+pub fn default_layouts(dim: usize) -> Vec<Layout> {
+    ALL_LAYOUTS.into_iter().filter(|l| dim <= 3 || !l.is_bricked()).collect()
+}
 /// Both code shapes, for generating every file.
 pub const ALL_VARIANTS: [Variant; 2] = [Variant::Fast, Variant::Naive];
 

@@ -210,7 +210,9 @@ pub(crate) fn emit_factored_body(fac: &Factorisation, sh: &Shapes, name: &str, o
     }
     let g: Vec<String> = (0..s).map(|i| total(&unit(i, 1))).collect();
     if order == 1 {
-        body.line(&format!("return vec{}<f32>({value}, {});", s + 1, g.join(", ")));
+        // Up to 3D the components go straight into vec{s+1}; in 4D into a vec4.
+        let g = if s <= 3 { g.join(", ") } else { sh.fvec(&g) };
+        body.line(&format!("return {};", sh.grad_result(name, &value, &g)));
         return body.text;
     }
     let value = body.bind("val", &value);

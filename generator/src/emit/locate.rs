@@ -454,7 +454,7 @@ pub(crate) fn emit_eval_body(
     let gx: Vec<String> = (0..sh.s).map(|i| format!("{}({}) * {gw}.{}", sh.vecf, frame.cols[i], AXES[i])).collect();
     let gx = body.bind("gx", &gx.join(" + "));
     if order < 2 {
-        body.line(&format!("return vec{}<f32>({value}, {gx});", sh.s + 1));
+        body.line(&format!("return {};", sh.grad_result(name, &value, &gx)));
         return body.text;
     }
     // Hessian: H_w = R^T H_u R per candidate (column j of H_w is column k of

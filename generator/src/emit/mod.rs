@@ -330,6 +330,7 @@ pub struct EmitStats {
 /// ([`crate::validate::bindings_of_wgsl`]).
 pub fn binding_purpose(filter: &str, name: &str) -> Option<&'static str> {
     Some(match name.strip_prefix(filter)?.strip_prefix('_')? {
+        "samples" => "The 4D samples as a read-only storage buffer: a vec4<i32> header (the stored extent, embedded; one coset's grid size, packed), then the f32 samples x fastest, then y, z and w (packed: the coset grids tiled as in the packed texture layout).",
         "volume" => "The samples as an r32float texture: lattice point j at texel j (the other texels are unused).",
         "cosets" => "The samples packed per coset of 2Z^s as one r32float texture (filterable with fetch = linear): lattice point j at texel (j >> 1) + (j & p) * grid.size, p = 1 on the pivot axes of the coset id, so each coset's grid is one tile.",
         "grid" => "The coset grid: its size (x, y, z or x, y) and, in w, the words per coset.",
@@ -367,21 +368,30 @@ pub fn file_name(filter: &str, layout: Layout, variant: Variant) -> String {
 /// # Errors
 ///
 /// [`Error::EmitCap`] when the derivation has more polynomials than
-/// `caps.max_emitted_polynomials`; [`Error::Unsupported`] for a 4D derivation
-/// (derived, not yet emitted) and for linear fetches
+/// `caps.max_emitted_polynomials`; [`Error::Unsupported`] for a 4D module
+/// in a bricked layout or with linear fetches (4D samples are a storage
+/// buffer), and for linear fetches
 /// where they do not apply (the naive variant; the embedded layout outside the
 /// one-coset tensor-product case); [`Error::Spec`] when other options cannot be
 /// met (`form = "factored"` on a filter that does not factor, the packed layout
 /// on a lattice without 2Z^s) or a template fails to render.
 pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
-    if d.facts.dim > 3 {
-        return Err(Error::Unsupported {
+    if d.facts.dim == 4 {
+        // WGSL has no 4D textures: 4D samples live in a storage buffer,
+        // which neither a page table over texture bricks nor a sampler reads.
+        let refuse = |what: &str, fix: &str| Error::Unsupported {
             origin: format!("filter {}", d.filter.name),
-            message: format!(
-                "{}D filters are derived but not yet emitted as WGSL (inspect the derivation instead)",
-                d.facts.dim
-            ),
-        });
+            message: format!("{what} is not offered for 4D filters (their samples are a storage buffer); {fix}"),
+        };
+        if opts.layout.is_bricked() {
+            return Err(refuse(
+                &format!("the {} layout", opts.layout.name()),
+                "use the embedded or packed layout (--layout embedded|packed)",
+            ));
+        }
+        if opts.fetch == FetchMode::Linear {
+            return Err(refuse("hardware-filtered (linear) fetch", "use exact fetches (--fetch exact)"));
+        }
     }
     let polynomials = d.polynomials();
     if polynomials > d.filter.caps.max_emitted_polynomials {
@@ -516,7 +526,12 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
         helper_text.push_str(&naive_tables(d, &plan, &sh, name));
         helper_text.push('\n');
     }
-    if opts.kernels {
+    // 4D: no min/max kernel. The cube bounds of 4D pieces run to megabytes
+    // of WGSL (bcc7 x cubic in t: 3.4 MB); the samples' own min/max over a
+    // block (grown by the support) bounds the spline as well, since its
+    // weights are non-negative and sum to 1.
+    let has_minmax = s <= 3;
+    if opts.kernels && has_minmax {
         // Tensor-product filters bound each cube through the factorisation
         // (a contraction, not dense weights of every sample).
         match &fac {
@@ -550,9 +565,16 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
             }
             Layout::Embedded | Layout::Bricked => (0, String::new(), String::new()),
         };
-    let extent_product = if s == 3 { "e.x * e.y * e.z" } else { "e.x * e.y" };
-    let delinearize =
-        if s == 3 { "vec3<i32>(i % e.x, (i / e.x) % e.y, i / (e.x * e.y))" } else { "vec2<i32>(i % e.x, i / e.x)" };
+    let extent_product = match s {
+        4 => "e.x * e.y * e.z * e.w",
+        3 => "e.x * e.y * e.z",
+        _ => "e.x * e.y",
+    };
+    let delinearize = match s {
+        4 => "vec4<i32>(i % e.x, (i / e.x) % e.y, (i / (e.x * e.y)) % e.z, i / (e.x * e.y * e.z))",
+        3 => "vec3<i32>(i % e.x, (i / e.x) % e.y, i / (e.x * e.y))",
+        _ => "vec2<i32>(i % e.x, i / e.x)",
+    };
     let (block_volume, cube_in_block) = if s == 3 {
         ("b * b * b", "vec3<i32>(t % b, (t / b) % b, t / (b * b))")
     } else {
@@ -563,7 +585,9 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
         let neg: IVec = k.iter().map(|x| -x).collect();
         let _ = writeln!(prefilter_body, "    acc += {} * {name}_fetch(j + {});", lit(w), sh.ivec(&neg));
     }
-    let out_binding = opts.binding + opts.layout.sample_bindings();
+    // 4D samples are one storage buffer whatever the layout.
+    let storage = s == 4;
+    let out_binding = opts.binding + if storage { 1 } else { opts.layout.sample_bindings() };
     let env = template_env();
     let tmpl = env.get_template("module.wgsl.j2").expect("template_env adds module.wgsl.j2");
     let ctx = minijinja::context! {
@@ -586,7 +610,7 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
         vecf => sh.vecf,
         veci => sh.veci,
         vecu => format!("vec{s}<u32>"),
-        gradf => format!("vec{}<f32>", s + 1),
+        gradf => if storage { format!("{name}_Gradient") } else { format!("vec{}<f32>", s + 1) },
         swz => swz,
         coset_formula => coset_formula,
         coset_mask => coset_mask,
@@ -599,6 +623,8 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
         hessian_form => hessian.as_ref().map(|h| h.form.name()).unwrap_or(""),
         matf => format!("mat{s}x{s}<f32>"),
         has_kernels => opts.kernels,
+        has_minmax => has_minmax,
+        storage => storage,
         extent_product => extent_product,
         delinearize => delinearize,
         block_volume => block_volume,
@@ -788,6 +814,7 @@ fn template_env() -> minijinja::Environment<'static> {
         ("fetch_packed.wgsl.j2", include_str!("../../../templates/fetch_packed.wgsl.j2")),
         ("fetch_bricked.wgsl.j2", include_str!("../../../templates/fetch_bricked.wgsl.j2")),
         ("fetch_bricked-packed.wgsl.j2", include_str!("../../../templates/fetch_bricked-packed.wgsl.j2")),
+        ("fetch_storage.wgsl.j2", include_str!("../../../templates/fetch_storage.wgsl.j2")),
         ("kernels.wgsl.j2", include_str!("../../../templates/kernels.wgsl.j2")),
     ] {
         env.add_template(n, src)

@@ -58,6 +58,16 @@ impl Shapes {
     pub(crate) fn new(s: usize) -> Shapes {
         Shapes { s, vecf: format!("vec{s}<f32>"), veci: format!("vec{s}<i32>") }
     }
+    /// The `eval_grad` result of filter `name`: `vec{s+1}<f32>(value, grad)`
+    /// up to 3D; in 4D, where WGSL has no five-component vector, the
+    /// module's `<name>_Gradient` struct.
+    pub(crate) fn grad_result(&self, name: &str, value: &str, grad: &str) -> String {
+        if self.s <= 3 {
+            format!("vec{}<f32>({value}, {grad})", self.s + 1)
+        } else {
+            format!("{name}_Gradient({value}, {grad})")
+        }
+    }
     pub(crate) fn ivec(&self, v: &[i64]) -> String {
         format!("{}({})", self.veci, v.iter().map(|x| x.to_string()).collect::<Vec<_>>().join(", "))
     }

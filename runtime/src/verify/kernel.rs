@@ -24,7 +24,14 @@ pub struct Output<'a> {
 /// the points `<prefix>_points` at binding 0 (read-only), then the outputs
 /// at bindings 1, 2, ... in order (read-write).
 pub fn points_kernel(entry: &str, group: u32, prefix: &str, outputs: &[Output]) -> String {
+    points_kernel_in(3, entry, group, prefix, outputs)
+}
+
+/// [`points_kernel`] for `dim`-dimensional points: `p` is the first `dim`
+/// components of each `vec4<f32>` point (all four in 4D).
+pub fn points_kernel_in(dim: usize, entry: &str, group: u32, prefix: &str, outputs: &[Output]) -> String {
     use std::fmt::Write;
+    let swizzle = &"xyzw"[..dim.clamp(1, 4)];
     let mut s = format!("\n@group({group}) @binding(0) var<storage, read> {prefix}_points: array<vec4<f32>>;\n");
     for (k, o) in outputs.iter().enumerate() {
         let _ = writeln!(
@@ -44,7 +51,7 @@ fn {entry}(@builtin(global_invocation_id) gid: vec3<u32>) {{
     if (i >= arrayLength(&{prefix}_points)) {{
         return;
     }}
-    let p = {prefix}_points[i].xyz;
+    let p = {prefix}_points[i].{swizzle};
 "
     );
     for o in outputs {

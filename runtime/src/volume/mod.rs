@@ -18,6 +18,7 @@ mod convert;
 mod device;
 mod error;
 mod format;
+mod four;
 #[cfg(feature = "nifti")]
 mod nifti;
 #[cfg(not(feature = "nifti"))]
@@ -35,6 +36,7 @@ pub use bricks::{slot_grid, BrickShape, BrickedVolume};
 pub use device::{DeviceVolume, VolumeOptions, DEFAULT_HALO};
 pub use error::VolumeError;
 pub use format::SampleFormat;
+pub use four::{DeviceVolume4, LatticeVolume4};
 pub use packing::PackedVolume;
 pub use raw::{parse_raw_spec, RawType};
 pub use series::{marschner_lobb_drift, ml_drift_frequency, VolumeSeries};

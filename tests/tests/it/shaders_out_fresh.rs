@@ -15,7 +15,7 @@ fn shaders_out_is_fresh() {
         let files = boxforge::build::output::generated_files(
             &d,
             command,
-            &boxforge::build::output::ALL_LAYOUTS,
+            &boxforge::build::output::default_layouts(d.facts.dim),
             &boxforge::build::output::ALL_VARIANTS,
         )
         .unwrap();

@@ -1,6 +1,6 @@
 //! `boxforge demo`: the README's main job.
 
-use boxforge::build::output::{generated_files, write_files, ALL_LAYOUTS, ALL_VARIANTS};
+use boxforge::build::output::{default_layouts, generated_files, write_files, ALL_VARIANTS};
 use boxforge::derive::Derivation;
 use boxforge::emit::Layout;
 use boxforge_runtime::gpu::Gpu;
@@ -45,7 +45,7 @@ pub fn run(out: &Path, size: u32, adapter: Option<&str>) -> Result<(), String> {
     for name in boxforge::spec::catalog::names() {
         let d = Derivation::new(&boxforge::spec::catalog::get(name).map_err(|e| e.to_string())?)
             .map_err(|e| e.to_string())?;
-        let files = generated_files(&d, command, &ALL_LAYOUTS, &ALL_VARIANTS).map_err(|e| e.to_string())?;
+        let files = generated_files(&d, command, &default_layouts(d.facts.dim), &ALL_VARIANTS).map_err(|e| e.to_string())?;
         write_files(Path::new("shaders-out"), &files).map_err(|e| e.to_string())?;
     }
     steps.println(&format!("[demo] catalog generated into shaders-out/ ({:.1} s)", started.elapsed().as_secs_f64()));

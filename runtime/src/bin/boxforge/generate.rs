@@ -99,6 +99,8 @@ pub fn run(a: GenerateArgs) -> Result<(), Failure> {
                 l.push(Layout::Packed);
             }
             l
+        } else if layout.is_none() {
+            output::default_layouts(d.facts.dim)
         } else {
             layouts.clone()
         };

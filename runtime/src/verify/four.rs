@@ -1,0 +1,249 @@
+//! `verify` in four dimensions: the emitted 4D module (samples in a storage
+//! buffer, `vec4` points) on the device against the exact evaluator at
+//! random points of a random 4D volume: value (`eval`), value and gradient
+//! (`eval_grad`, a `<f>_Gradient` struct in 4D) and, from degree 2,
+//! `eval_hessian`, with the 3D tolerances and the same acceptance of points
+//! within rounding of a knot plane.
+
+use super::hessian::HESSIAN_TOLERANCE;
+use super::{kernel, near_knot, Rng, VerifyError, VerifyReport, GRADIENT_TOLERANCE, VALUE_TOLERANCE};
+use crate::gpu::binding::storage_entry;
+use crate::gpu::Gpu;
+use crate::volume::{DeviceVolume4, LatticeVolume4};
+use boxforge::derive::Derivation;
+use boxforge::emit::{emit, Bounds, EmitOptions, EvalForm, FetchMode, Layout, Variant};
+use boxforge::eval::SecondOrder;
+
+/// Rows of 4 floats the kernel writes per point: (eval, eval_grad.value,
+/// eval_hessian.value, 0), eval_grad's gradient, eval_hessian's gradient,
+/// then its four columns.
+const ROWS: usize = 7;
+
+/// Random data in [0, 1) at the lattice points of a 4D box big enough for the support.
+pub fn random_volume4(d: &Derivation, seed: u64) -> LatticeVolume4 {
+    let n = (2 * super::support_radius(d) + 6).next_multiple_of(2);
+    let dims = [n; 4];
+    let mut rng = Rng(seed);
+    let mut data = vec![0f32; n * n * n * n];
+    for (i, v) in data.iter_mut().enumerate() {
+        let j = [i % n, (i / n) % n, (i / (n * n)) % n, i / (n * n * n)].map(|x| x as i64);
+        if d.filter.lattice.contains(&j) {
+            *v = rng.next_f64() as f32;
+        }
+    }
+    LatticeVolume4::new(d.filter.lattice.clone(), dims, data).expect("a 4D lattice and a matching box")
+}
+
+/// Random points where the whole support lies inside the volume.
+pub fn random_points4(d: &Derivation, vol: &LatticeVolume4, count: usize, seed: u64) -> Vec<[f32; 4]> {
+    let r = super::support_radius(d) as f64 + 1.0;
+    let mut rng = Rng(seed ^ 0x4D4D);
+    (0..count)
+        .map(|_| std::array::from_fn(|a| (r + rng.next_f64() * (vol.dims[a] as f64 - 1.0 - 2.0 * r)) as f32))
+        .collect()
+}
+
+/// The wrapper around the module: one row block per point.
+fn wrapper(name: &str, hessian: bool) -> String {
+    let h = if hessian {
+        format!(
+            "    let h = {name}_eval_hessian(p);
+    return array<vec4<f32>, {ROWS}>(vec4<f32>({name}_eval(p), g.value, h.value, 0.0), g.gradient, h.gradient,
+        h.hessian[0], h.hessian[1], h.hessian[2], h.hessian[3]);"
+        )
+    } else {
+        format!(
+            "    let z = vec4<f32>(0.0);
+    return array<vec4<f32>, {ROWS}>(vec4<f32>({name}_eval(p), g.value, g.value, 0.0), g.gradient, g.gradient, z, z, z, z);"
+        )
+    };
+    let rows = format!(
+        "\nfn verify4_rows(p: vec4<f32>) -> array<vec4<f32>, {ROWS}> {{\n    let g = {name}_eval_grad(p);\n{h}\n}}\n"
+    );
+    let k = kernel::points_kernel_in(
+        4,
+        "verify4_main",
+        1,
+        "v4",
+        &[kernel::Output { name: "rows", ty: &format!("array<vec4<f32>, {ROWS}>"), expr: "verify4_rows(p)" }],
+    );
+    format!("{rows}{k}")
+}
+
+/// One point's device results.
+struct Got {
+    value: f32,
+    grad_value: f32,
+    hessian_value: f32,
+    gradient: [f32; 4],
+    hessian_gradient: [f32; 4],
+    /// Column-major: hessian[col][row].
+    hessian: [[f32; 4]; 4],
+}
+
+fn errors(g: &Got, e: &SecondOrder, range: f64, with_hessian: bool) -> (f64, f64, f64) {
+    let (ev, eg, eh) = (e.0, &e.1, &e.2);
+    let abs = [g.value, g.grad_value, g.hessian_value].iter().fold(0f64, |m, v| m.max((*v as f64 - ev).abs()));
+    let gmax = eg.iter().fold(0f64, |m, x| m.max(x.abs())).max(range);
+    let rel = [g.gradient, g.hessian_gradient]
+        .iter()
+        .flat_map(|gr| (0..4).map(move |i| (gr[i] as f64 - eg[i]).abs()))
+        .fold(0f64, f64::max)
+        / gmax;
+    let h = if with_hessian {
+        let hmax = eh.iter().fold(0f64, |m, x| m.max(x.abs())).max(range);
+        (0..16).map(|k| (g.hessian[k / 4][k % 4] as f64 - eh[(k % 4) * 4 + k / 4]).abs()).fold(0f64, f64::max) / hmax
+    } else {
+        0.0
+    };
+    (abs, rel, h)
+}
+
+fn within((abs, rel, h): (f64, f64, f64), range: f64) -> bool {
+    abs <= VALUE_TOLERANCE * range && rel <= GRADIENT_TOLERANCE && h <= HESSIAN_TOLERANCE
+}
+
+/// [`super::verify_fetch`] for a 4D filter (exact fetches: 4D samples are a
+/// storage buffer, which no sampler filters).
+#[allow(clippy::too_many_arguments)]
+pub fn verify4(
+    gpu: &Gpu,
+    d: &Derivation,
+    layout: Layout,
+    variant: Variant,
+    form: Option<EvalForm>,
+    bounds: Bounds,
+    points: usize,
+    seed: u64,
+) -> Result<VerifyReport, VerifyError> {
+    if points == 0 {
+        return Err(VerifyError::NoPoints);
+    }
+    let vol = random_volume4(d, seed);
+    let dv = DeviceVolume4::new(gpu, &vol, layout).map_err(|e| VerifyError::Emit(e.to_string()))?;
+    let module = emit(
+        d,
+        &EmitOptions {
+            layout,
+            variant,
+            kernels: false,
+            command: "boxforge verify".into(),
+            form,
+            bounds,
+            ..Default::default()
+        },
+    )
+    .map_err(|e| VerifyError::Emit(e.to_string()))?;
+    let with_hessian = module.stats.hessian_form.is_some();
+    let source = format!("{}\n{}", module.source, wrapper(&d.filter.name, with_hessian));
+    let shader = gpu.compile(&module.file_name, &source)?;
+    let dev = &gpu.device;
+    let bgl0 = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("4d samples"),
+        entries: &[dv.layout_entry(0)],
+    });
+    let bgl1 = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("io"),
+        entries: &[storage_entry(0, true), storage_entry(1, false)],
+    });
+    let pipeline = gpu.pipeline("verify4_main", &shader, &[&bgl0, &bgl1], "verify4_main")?;
+    let bg0 = gpu.checked("bind the 4D samples", || {
+        dev.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("4d samples"),
+            layout: &bgl0,
+            entries: &[dv.bind_entry(0)],
+        })
+    })?;
+    let pts = random_points4(d, &vol, points, seed);
+    let mut got = Vec::with_capacity(points);
+    for chunk in pts.chunks(super::POINTS_PER_DISPATCH) {
+        let n = chunk.len();
+        let pbuf = gpu.storage_buffer("points", bytemuck::cast_slice(chunk), false);
+        let out = gpu.storage_buffer("rows", &vec![0u8; n * ROWS * 16], true);
+        let bg1 = gpu.checked("bind the points", || {
+            dev.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("io"),
+                layout: &bgl1,
+                entries: &[
+                    wgpu::BindGroupEntry { binding: 0, resource: pbuf.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 1, resource: out.as_entire_binding() },
+                ],
+            })
+        })?;
+        let (gx, gy) = kernel::dispatch_size(n);
+        gpu.dispatch("verify4", &pipeline, &[&bg0, &bg1], (gx, gy, 1))?;
+        let raw = gpu.read_buffer(&out)?;
+        for r in bytemuck::cast_slice::<u8, [[f32; 4]; ROWS]>(&raw) {
+            got.push(Got {
+                value: r[0][0],
+                grad_value: r[0][1],
+                hessian_value: r[0][2],
+                gradient: r[1],
+                hessian_gradient: r[2],
+                hessian: [r[3], r[4], r[5], r[6]],
+            });
+        }
+    }
+    // The exact side, on all cores.
+    let data = |j: &[i64]| vol.get(j) as f64;
+    let _ = d.f64_tables();
+    let threads = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
+    let chunk = pts.len().div_ceil(threads).max(1);
+    let exact: Vec<SecondOrder> = std::thread::scope(|s| {
+        let handles: Vec<_> = pts
+            .chunks(chunk)
+            .map(|c| {
+                let data = &data;
+                s.spawn(move || c.iter().map(|p| d.eval_f64_hessian(&p.map(f64::from), data)).collect::<Vec<_>>())
+            })
+            .collect();
+        handles.into_iter().flat_map(|h| h.join().expect("cpu eval")).collect()
+    });
+    let range = {
+        let (lo, hi) = vol.data.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
+        (hi - lo).max(f32::MIN_POSITIVE) as f64
+    };
+    let (mut max_abs, mut max_rel, mut max_h) = (0f64, 0f64, 0f64);
+    let (mut near, mut other) = (0, 0);
+    for ((p, g), e) in pts.iter().zip(&got).zip(&exact) {
+        let mut err = errors(g, e, range, with_hessian);
+        let x = p.map(f64::from);
+        if let Some(tol) = near_knot(d, &x) {
+            near += 1;
+            if !within(err, range) {
+                let found = d
+                    .eval_f64_pieces_near_hessian(&x, &data, tol)
+                    .iter()
+                    .map(|o| errors(g, o, range, with_hessian))
+                    .find(|e| within(*e, range));
+                if let Some(e) = found {
+                    other += 1;
+                    err = e;
+                }
+            }
+        }
+        max_abs = max_abs.max(err.0);
+        max_rel = max_rel.max(err.1);
+        max_h = max_h.max(err.2);
+    }
+    let passed = within((max_abs, max_rel, max_h), range);
+    Ok(VerifyReport {
+        filter: d.filter.name.clone(),
+        layout,
+        variant,
+        form: module.stats.form,
+        bounds,
+        fetch: FetchMode::Exact,
+        points,
+        max_abs_err: max_abs,
+        max_rel_grad_err: max_rel,
+        data_range: range,
+        near_knot_points: near,
+        accepted_other_side: other,
+        hessian_form: module.stats.hessian_form,
+        max_rel_hessian_err: with_hessian.then_some(max_h),
+        hessian_accepted_other_side: if with_hessian { other } else { 0 },
+        passed,
+        adapter: gpu.describe(),
+    })
+}
