@@ -19,6 +19,9 @@ pub mod target;
 pub enum VerifyError {
     #[error(transparent)]
     Gpu(#[from] GpuError),
+    /// A volume the device cannot hold in the requested layout.
+    #[error(transparent)]
+    Volume(#[from] crate::volume::VolumeError),
     /// The generator refused the module (its message names the reason).
     #[error("{0}")]
     Emit(String),

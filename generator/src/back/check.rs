@@ -73,7 +73,17 @@ fn check_text(t: &Translated, u: &Unit, text: &str) -> Result<(), BackError> {
             // Every declaration agrees: OpenGL's and, for textures, the
             // `#ifdef VULKAN` twin's (`layout(set = G, binding = N)`).
             TargetSlot::GlBinding { binding } => {
-                let decls: Vec<&&str> = lines.iter().filter(|l| l.starts_with("layout(")).collect();
+                // A buffer block (4D samples: a header and an array) names
+                // its instance on the closing line: `} NAME;` after `layout(..) buffer X {`.
+                let block_headers: Vec<&str> = code
+                    .lines()
+                    .collect::<Vec<_>>()
+                    .windows(4)
+                    .filter(|w| w[3].starts_with('}') && ident_positions(w[3], &b.name_in_target).next().is_some())
+                    .filter_map(|w| w[..3].iter().rev().find(|l| l.starts_with("layout(")).copied())
+                    .collect();
+                let decls: Vec<&&str> =
+                    lines.iter().filter(|l| l.starts_with("layout(")).chain(block_headers.iter()).collect();
                 !decls.is_empty() && decls.iter().all(|l| l.contains(&format!("binding = {binding})")))
             }
             TargetSlot::CombinedWith { texture } => !texture.is_empty() && !lines_with(code, texture).is_empty(),

@@ -84,9 +84,9 @@ fn with_purposes(filter: &str, mut list: Vec<Binding>) -> Vec<Binding> {
 /// What the host puts in `<f>_eval_main`'s buffers.
 fn eval_kernel_purpose(filter: &str, name: &str) -> Option<&'static str> {
     Some(match name.strip_prefix(filter)?.strip_prefix('_')? {
-        "points" => "The eval kernel's input: one point per invocation, lattice coordinates in xyz (xy in 2D).",
+        "points" => "The eval kernel's input: one point per invocation, lattice coordinates in xyz (xy in 2D, xyzw in 4D).",
         "values" => "The eval kernel's output: <f>_eval at each point.",
-        "gradients" => "The eval kernel's output: <f>_eval_grad at each point (value, then the gradient; w = 0 in 2D).",
+        "gradients" => "The eval kernel's output: <f>_eval_grad at each point (value, then the gradient; w = 0 in 2D; in 4D the gradient alone, the value being in values).",
         _ => return None,
     })
 }
@@ -159,10 +159,11 @@ impl Prepared {
         let eval_kernel_slots = if eval_kernel {
             let group = original_bindings.first().map_or(0, |b| b.group);
             let next = original_bindings.iter().filter(|b| b.group == group).map(|b| b.binding + 1).max().unwrap_or(0);
-            let (point, grad) = if dim == 2 {
-                ("xy", format!("vec4<f32>({filter}_eval_grad(p), 0.0)"))
-            } else {
-                ("xyz", format!("{filter}_eval_grad(p)"))
+            let (point, grad) = match dim {
+                2 => ("xy", format!("vec4<f32>({filter}_eval_grad(p), 0.0)")),
+                // 4D: eval_grad is a struct (WGSL has no vec5); the value is in `values`.
+                4 => ("xyzw", format!("{filter}_eval_grad(p).gradient")),
+                _ => ("xyz", format!("{filter}_eval_grad(p)")),
             };
             let _ = write!(
                 extra,

@@ -19,6 +19,18 @@ pub fn program(module: &str, extra: &str, call: &str) -> String {
     format!("{module}\n{extra}\n{kernel}")
 }
 
+/// [`program`] for a 4D module: `p` is the whole `vec4` point.
+pub fn program4(module: &str, call: &str) -> String {
+    let kernel = crate::verify::kernel::points_kernel_in(
+        4,
+        "bench_main",
+        1,
+        "bx",
+        &[Output { name: "out", ty: "vec4<f32>", expr: call }],
+    );
+    format!("{module}\n{kernel}")
+}
+
 /// Central differences from 6 extra evaluations (h = 1e-2 cell).
 pub(super) fn central_call(name: &str) -> String {
     format!(
@@ -57,7 +69,22 @@ impl Job {
             return Err(GpuError::Runtime(format!("{label}: hardware filtering needs the embedded layout")));
         }
         let shader = gpu.compile(label, source)?;
-        Job::with_shader(gpu, &shader, ("bench_main", label), sampled, dv, points)
+        let samples = (dv.layout_entries(0, wgpu::ShaderStages::COMPUTE), dv.bind_entries(0));
+        Job::with_shader(gpu, &shader, ("bench_main", label), sampled, samples, points)
+    }
+
+    /// [`Job::new`] over 4D samples (one storage buffer; a source made by
+    /// [`program4`]).
+    pub fn new4(
+        gpu: &Gpu,
+        source: &str,
+        label: &str,
+        dv: &crate::volume::DeviceVolume4,
+        points: &[[f32; 4]],
+    ) -> Result<Job, GpuError> {
+        let shader = gpu.compile(label, source)?;
+        let samples = (vec![dv.layout_entry(0)], vec![dv.bind_entry(0)]);
+        Job::with_shader(gpu, &shader, ("bench_main", label), false, samples, points)
     }
 
     /// A SPIR-V program run as it is (wgpu's passthrough): the volume in
@@ -75,7 +102,8 @@ impl Job {
     ) -> Result<Job, GpuError> {
         let size = crate::verify::kernel::WORKGROUP_SIZE;
         let shader = gpu.spirv_passthrough(label, words, entry, (size, 1, 1))?;
-        Job::with_shader(gpu, &shader, (entry, label), false, dv, points)
+        let samples = (dv.layout_entries(0, wgpu::ShaderStages::COMPUTE), dv.bind_entries(0));
+        Job::with_shader(gpu, &shader, (entry, label), false, samples, points)
     }
 
     fn with_shader(
@@ -83,11 +111,10 @@ impl Job {
         shader: &wgpu::ShaderModule,
         (entry, label): (&str, &str),
         sampled: bool,
-        dv: &DeviceVolume,
+        (mut entries0, binds0): (Vec<wgpu::BindGroupLayoutEntry>, Vec<wgpu::BindGroupEntry<'_>>),
         points: &[[f32; 4]],
     ) -> Result<Job, GpuError> {
         let dev = &gpu.device;
-        let mut entries0 = dv.layout_entries(0, wgpu::ShaderStages::COMPUTE);
         if sampled {
             for e in entries0.iter_mut() {
                 if let wgpu::BindingType::Texture { sample_type, .. } = &mut e.ty {
@@ -115,11 +142,7 @@ impl Job {
         let n = points.len();
         let pts = gpu.storage_buffer("points", bytemuck::cast_slice(points), false);
         let out = gpu.storage_buffer("out", &vec![0u8; n * 16], true);
-        let bg0 = dev.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: None,
-            layout: &bgl0,
-            entries: &dv.bind_entries(0),
-        });
+        let bg0 = dev.create_bind_group(&wgpu::BindGroupDescriptor { label: None, layout: &bgl0, entries: &binds0 });
         let bg_io = dev.create_bind_group(&wgpu::BindGroupDescriptor {
             label: None,
             layout: &bgl_io,

@@ -14,6 +14,7 @@
 pub mod curvature;
 pub mod derive;
 pub mod dvr;
+pub mod four;
 pub mod glsl_rivals;
 pub mod hessian;
 pub mod hit;

@@ -71,17 +71,23 @@ fn wrapper(name: &str, hessian: bool) -> String {
 }
 
 /// One point's device results.
-struct Got {
-    value: f32,
-    grad_value: f32,
-    hessian_value: f32,
-    gradient: [f32; 4],
-    hessian_gradient: [f32; 4],
-    /// Column-major: hessian[col][row].
-    hessian: [[f32; 4]; 4],
+#[derive(Clone, Debug, PartialEq)]
+pub struct Got4 {
+    /// `eval`.
+    pub value: f32,
+    /// `eval_grad`'s value.
+    pub grad_value: f32,
+    /// `eval_hessian`'s value (`eval_grad`'s below degree 2).
+    pub hessian_value: f32,
+    /// `eval_grad`'s gradient.
+    pub gradient: [f32; 4],
+    /// `eval_hessian`'s gradient (`eval_grad`'s below degree 2).
+    pub hessian_gradient: [f32; 4],
+    /// Column-major: hessian[col][row] (zero below degree 2).
+    pub hessian: [[f32; 4]; 4],
 }
 
-fn errors(g: &Got, e: &SecondOrder, range: f64, with_hessian: bool) -> (f64, f64, f64) {
+fn errors(g: &Got4, e: &SecondOrder, range: f64, with_hessian: bool) -> (f64, f64, f64) {
     let (ev, eg, eh) = (e.0, &e.1, &e.2);
     let abs = [g.value, g.grad_value, g.hessian_value].iter().fold(0f64, |m, v| m.max((*v as f64 - ev).abs()));
     let gmax = eg.iter().fold(0f64, |m, x| m.max(x.abs())).max(range);
@@ -103,6 +109,159 @@ fn within((abs, rel, h): (f64, f64, f64), range: f64) -> bool {
     abs <= VALUE_TOLERANCE * range && rel <= GRADIENT_TOLERANCE && h <= HESSIAN_TOLERANCE
 }
 
+/// A compiled 4D module with the evaluation wrapper, over one 4D volume.
+pub struct Evaluator4<'a> {
+    gpu: &'a Gpu,
+    pipeline: wgpu::ComputePipeline,
+    bgl1: wgpu::BindGroupLayout,
+    bg0: wgpu::BindGroup,
+    /// The emitted module's counts (form, Hessian form).
+    pub stats: boxforge::emit::EmitStats,
+}
+
+impl<'a> Evaluator4<'a> {
+    /// Emits `d` for `dv`'s layout and compiles it with the wrapper.
+    pub fn new(
+        gpu: &'a Gpu,
+        d: &Derivation,
+        dv: &DeviceVolume4,
+        variant: Variant,
+        form: Option<EvalForm>,
+        bounds: Bounds,
+    ) -> Result<Evaluator4<'a>, VerifyError> {
+        let module = emit(
+            d,
+            &EmitOptions {
+                layout: dv.layout,
+                variant,
+                kernels: false,
+                command: "boxforge verify".into(),
+                form,
+                bounds,
+                ..Default::default()
+            },
+        )
+        .map_err(|e| VerifyError::Emit(e.to_string()))?;
+        let source = format!("{}\n{}", module.source, wrapper(&d.filter.name, module.stats.hessian_form.is_some()));
+        let shader = gpu.compile(&module.file_name, &source)?;
+        let dev = &gpu.device;
+        let bgl0 = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("4d samples"),
+            entries: &[dv.layout_entry(0)],
+        });
+        let bgl1 = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("io"),
+            entries: &[storage_entry(0, true), storage_entry(1, false)],
+        });
+        let pipeline = gpu.pipeline("verify4_main", &shader, &[&bgl0, &bgl1], "verify4_main")?;
+        let bg0 = gpu.checked("bind the 4D samples", || {
+            dev.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("4d samples"),
+                layout: &bgl0,
+                entries: &[dv.bind_entry(0)],
+            })
+        })?;
+        Ok(Evaluator4 { gpu, pipeline, bgl1, bg0, stats: module.stats })
+    }
+
+    /// Every function of the module at every point.
+    pub fn eval(&self, points: &[[f32; 4]]) -> Result<Vec<Got4>, VerifyError> {
+        let (gpu, dev) = (self.gpu, &self.gpu.device);
+        let mut got = Vec::with_capacity(points.len());
+        for chunk in points.chunks(super::POINTS_PER_DISPATCH) {
+            let n = chunk.len();
+            let pbuf = gpu.storage_buffer("points", bytemuck::cast_slice(chunk), false);
+            let out = gpu.storage_buffer("rows", &vec![0u8; n * ROWS * 16], true);
+            let bg1 = gpu.checked("bind the points", || {
+                dev.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("io"),
+                    layout: &self.bgl1,
+                    entries: &[
+                        wgpu::BindGroupEntry { binding: 0, resource: pbuf.as_entire_binding() },
+                        wgpu::BindGroupEntry { binding: 1, resource: out.as_entire_binding() },
+                    ],
+                })
+            })?;
+            let (gx, gy) = kernel::dispatch_size(n);
+            gpu.dispatch("verify4", &self.pipeline, &[&self.bg0, &bg1], (gx, gy, 1))?;
+            let raw = gpu.read_buffer(&out)?;
+            got.extend(bytemuck::cast_slice::<u8, [[f32; 4]; ROWS]>(&raw).iter().map(|r| Got4 {
+                value: r[0][0],
+                grad_value: r[0][1],
+                hessian_value: r[0][2],
+                gradient: r[1],
+                hessian_gradient: r[2],
+                hessian: [r[3], r[4], r[5], r[6]],
+            }));
+        }
+        Ok(got)
+    }
+}
+
+/// The comparison of device results with the exact evaluator in 4D.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Tally4 {
+    pub data_range: f64,
+    pub max_abs: f64,
+    pub max_rel: f64,
+    /// Largest relative Hessian error (0 below degree 2).
+    pub max_rel_hessian: f64,
+    pub near_knot_points: usize,
+    pub accepted_other_side: usize,
+}
+
+impl Tally4 {
+    /// Device results `got` at `pts` against the exact values on `vol`
+    /// (value, gradient and, `with_hessian`, the Hessian; a point within
+    /// rounding of a knot plane may match the piece across it).
+    pub fn check(d: &Derivation, vol: &LatticeVolume4, pts: &[[f32; 4]], got: &[Got4], with_hessian: bool) -> Tally4 {
+        let data = |j: &[i64]| vol.get(j) as f64;
+        let _ = d.f64_tables();
+        let threads = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
+        let chunk = pts.len().div_ceil(threads).max(1);
+        let exact: Vec<SecondOrder> = std::thread::scope(|s| {
+            let handles: Vec<_> = pts
+                .chunks(chunk)
+                .map(|c| {
+                    let data = &data;
+                    s.spawn(move || c.iter().map(|p| d.eval_f64_hessian(&p.map(f64::from), data)).collect::<Vec<_>>())
+                })
+                .collect();
+            handles.into_iter().flat_map(|h| h.join().expect("cpu eval")).collect()
+        });
+        let (lo, hi) = vol.data.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
+        let range = (hi - lo).max(f32::MIN_POSITIVE) as f64;
+        let mut t = Tally4 { data_range: range, ..Tally4::default() };
+        for ((p, g), e) in pts.iter().zip(got).zip(&exact) {
+            let mut err = errors(g, e, range, with_hessian);
+            let x = p.map(f64::from);
+            if let Some(tol) = near_knot(d, &x) {
+                t.near_knot_points += 1;
+                if !within(err, range) {
+                    let found = d
+                        .eval_f64_pieces_near_hessian(&x, &data, tol)
+                        .iter()
+                        .map(|o| errors(g, o, range, with_hessian))
+                        .find(|e| within(*e, range));
+                    if let Some(e) = found {
+                        t.accepted_other_side += 1;
+                        err = e;
+                    }
+                }
+            }
+            t.max_abs = t.max_abs.max(err.0);
+            t.max_rel = t.max_rel.max(err.1);
+            t.max_rel_hessian = t.max_rel_hessian.max(err.2);
+        }
+        t
+    }
+
+    /// Every point within the value, gradient and Hessian tolerances.
+    pub fn passed(&self) -> bool {
+        within((self.max_abs, self.max_rel, self.max_rel_hessian), self.data_range)
+    }
+}
+
 /// [`super::verify_fetch`] for a 4D filter (exact fetches: 4D samples are a
 /// storage buffer, which no sampler filters).
 #[allow(clippy::too_many_arguments)]
@@ -120,130 +279,29 @@ pub fn verify4(
         return Err(VerifyError::NoPoints);
     }
     let vol = random_volume4(d, seed);
-    let dv = DeviceVolume4::new(gpu, &vol, layout).map_err(|e| VerifyError::Emit(e.to_string()))?;
-    let module = emit(
-        d,
-        &EmitOptions {
-            layout,
-            variant,
-            kernels: false,
-            command: "boxforge verify".into(),
-            form,
-            bounds,
-            ..Default::default()
-        },
-    )
-    .map_err(|e| VerifyError::Emit(e.to_string()))?;
-    let with_hessian = module.stats.hessian_form.is_some();
-    let source = format!("{}\n{}", module.source, wrapper(&d.filter.name, with_hessian));
-    let shader = gpu.compile(&module.file_name, &source)?;
-    let dev = &gpu.device;
-    let bgl0 = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some("4d samples"),
-        entries: &[dv.layout_entry(0)],
-    });
-    let bgl1 = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some("io"),
-        entries: &[storage_entry(0, true), storage_entry(1, false)],
-    });
-    let pipeline = gpu.pipeline("verify4_main", &shader, &[&bgl0, &bgl1], "verify4_main")?;
-    let bg0 = gpu.checked("bind the 4D samples", || {
-        dev.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("4d samples"),
-            layout: &bgl0,
-            entries: &[dv.bind_entry(0)],
-        })
-    })?;
+    let dv = DeviceVolume4::new(gpu, &vol, layout)?;
+    let ev = Evaluator4::new(gpu, d, &dv, variant, form, bounds)?;
+    let with_hessian = ev.stats.hessian_form.is_some();
     let pts = random_points4(d, &vol, points, seed);
-    let mut got = Vec::with_capacity(points);
-    for chunk in pts.chunks(super::POINTS_PER_DISPATCH) {
-        let n = chunk.len();
-        let pbuf = gpu.storage_buffer("points", bytemuck::cast_slice(chunk), false);
-        let out = gpu.storage_buffer("rows", &vec![0u8; n * ROWS * 16], true);
-        let bg1 = gpu.checked("bind the points", || {
-            dev.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("io"),
-                layout: &bgl1,
-                entries: &[
-                    wgpu::BindGroupEntry { binding: 0, resource: pbuf.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 1, resource: out.as_entire_binding() },
-                ],
-            })
-        })?;
-        let (gx, gy) = kernel::dispatch_size(n);
-        gpu.dispatch("verify4", &pipeline, &[&bg0, &bg1], (gx, gy, 1))?;
-        let raw = gpu.read_buffer(&out)?;
-        for r in bytemuck::cast_slice::<u8, [[f32; 4]; ROWS]>(&raw) {
-            got.push(Got {
-                value: r[0][0],
-                grad_value: r[0][1],
-                hessian_value: r[0][2],
-                gradient: r[1],
-                hessian_gradient: r[2],
-                hessian: [r[3], r[4], r[5], r[6]],
-            });
-        }
-    }
-    // The exact side, on all cores.
-    let data = |j: &[i64]| vol.get(j) as f64;
-    let _ = d.f64_tables();
-    let threads = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
-    let chunk = pts.len().div_ceil(threads).max(1);
-    let exact: Vec<SecondOrder> = std::thread::scope(|s| {
-        let handles: Vec<_> = pts
-            .chunks(chunk)
-            .map(|c| {
-                let data = &data;
-                s.spawn(move || c.iter().map(|p| d.eval_f64_hessian(&p.map(f64::from), data)).collect::<Vec<_>>())
-            })
-            .collect();
-        handles.into_iter().flat_map(|h| h.join().expect("cpu eval")).collect()
-    });
-    let range = {
-        let (lo, hi) = vol.data.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
-        (hi - lo).max(f32::MIN_POSITIVE) as f64
-    };
-    let (mut max_abs, mut max_rel, mut max_h) = (0f64, 0f64, 0f64);
-    let (mut near, mut other) = (0, 0);
-    for ((p, g), e) in pts.iter().zip(&got).zip(&exact) {
-        let mut err = errors(g, e, range, with_hessian);
-        let x = p.map(f64::from);
-        if let Some(tol) = near_knot(d, &x) {
-            near += 1;
-            if !within(err, range) {
-                let found = d
-                    .eval_f64_pieces_near_hessian(&x, &data, tol)
-                    .iter()
-                    .map(|o| errors(g, o, range, with_hessian))
-                    .find(|e| within(*e, range));
-                if let Some(e) = found {
-                    other += 1;
-                    err = e;
-                }
-            }
-        }
-        max_abs = max_abs.max(err.0);
-        max_rel = max_rel.max(err.1);
-        max_h = max_h.max(err.2);
-    }
-    let passed = within((max_abs, max_rel, max_h), range);
+    let got = ev.eval(&pts)?;
+    let t = Tally4::check(d, &vol, &pts, &got, with_hessian);
     Ok(VerifyReport {
         filter: d.filter.name.clone(),
         layout,
         variant,
-        form: module.stats.form,
+        form: ev.stats.form,
         bounds,
         fetch: FetchMode::Exact,
         points,
-        max_abs_err: max_abs,
-        max_rel_grad_err: max_rel,
-        data_range: range,
-        near_knot_points: near,
-        accepted_other_side: other,
-        hessian_form: module.stats.hessian_form,
-        max_rel_hessian_err: with_hessian.then_some(max_h),
-        hessian_accepted_other_side: if with_hessian { other } else { 0 },
-        passed,
+        max_abs_err: t.max_abs,
+        max_rel_grad_err: t.max_rel,
+        data_range: t.data_range,
+        near_knot_points: t.near_knot_points,
+        accepted_other_side: t.accepted_other_side,
+        hessian_form: ev.stats.hessian_form,
+        max_rel_hessian_err: with_hessian.then_some(t.max_rel_hessian),
+        hessian_accepted_other_side: if with_hessian { t.accepted_other_side } else { 0 },
+        passed: t.passed(),
         adapter: gpu.describe(),
     })
 }

@@ -144,14 +144,12 @@ impl DeviceVolume4 {
         let words = match layout {
             Layout::Embedded => vol.embedded_words(),
             Layout::Packed => vol.packed_words()?,
-            other => {
-                return Err(VolumeError::Series {
-                    message: format!(
-                        "4D samples are a storage buffer: the {} layout is not offered; use --layout embedded or packed",
-                        other.name()
-                    ),
-                })
-            }
+            other => return Err(VolumeError::Series {
+                message: format!(
+                    "4D samples are a storage buffer: the {} layout is not offered; use --layout embedded or packed",
+                    other.name()
+                ),
+            }),
         };
         let bytes = 4 * words.len();
         let limit = gpu.device.limits().max_storage_buffer_binding_size as usize;
@@ -206,7 +204,8 @@ mod tests {
     /// read back from the tiled buffer with the template's arithmetic.
     #[test]
     fn packed_words_hold_every_lattice_point_where_the_fetch_reads() {
-        for (name, dims) in [("d4star", [6, 4, 4, 6]), ("d4", [4, 6, 4, 4]), ("z4", [4, 4, 2, 4]), ("d4star", [5, 4, 3, 4])]
+        for (name, dims) in
+            [("d4star", [6, 4, 4, 6]), ("d4", [4, 6, 4, 4]), ("z4", [4, 4, 2, 4]), ("d4star", [5, 4, 3, 4])]
         {
             let v = vol(name, dims);
             let w = v.packed_words().unwrap();
@@ -217,8 +216,13 @@ mod tests {
             assert_eq!(w.len() - 4, e.iter().product::<i64>() as usize, "{name}");
             let mut seen = 0;
             for i in 0..v.data.len() {
-                let j = [i % dims[0], (i / dims[0]) % dims[1], (i / (dims[0] * dims[1])) % dims[2], i / (v.data.len() / dims[3])]
-                    .map(|x| x as i64);
+                let j = [
+                    i % dims[0],
+                    (i / dims[0]) % dims[1],
+                    (i / (dims[0] * dims[1])) % dims[2],
+                    i / (v.data.len() / dims[3]),
+                ]
+                .map(|x| x as i64);
                 if !v.lattice.contains(&j) {
                     continue;
                 }

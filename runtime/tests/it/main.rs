@@ -13,6 +13,7 @@ mod dvr;
 mod frames;
 mod gpu_bench;
 mod gpu_verify;
+mod gpu_verify_4d;
 mod hessian;
 mod hessian_refs;
 mod hit;

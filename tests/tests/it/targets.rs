@@ -27,16 +27,16 @@ fn catalog_modules() -> Vec<(String, String)> {
                 s.spawn(move || {
                     let d = Derivation::new(&catalog::get(name).unwrap()).unwrap();
                     d.derive_all_forms(&|_, _| {});
-                    let mut jobs = vec![
-                        (Layout::Embedded, FetchMode::Exact),
-                        (Layout::Packed, FetchMode::Exact),
-                        (Layout::Bricked, FetchMode::Exact),
-                        (Layout::BrickedPacked, FetchMode::Exact),
-                    ];
-                    if d.factorisation().is_some_and(|f| f.supports_linear_fetch()) {
+                    let mut jobs: Vec<(Layout, FetchMode)> = boxforge::build::output::default_layouts(d.facts.dim)
+                        .into_iter()
+                        .map(|l| (l, FetchMode::Exact))
+                        .collect();
+                    // 4D samples are a storage buffer: exact fetches only.
+                    let textures = d.facts.dim <= 3;
+                    if textures && d.factorisation().is_some_and(|f| f.supports_linear_fetch()) {
                         jobs.push((Layout::Embedded, FetchMode::Linear));
                     }
-                    if coset_pivots(&d.filter.lattice).is_ok() {
+                    if textures && coset_pivots(&d.filter.lattice).is_ok() {
                         jobs.push((Layout::Packed, FetchMode::Linear));
                     }
                     jobs.into_iter()

@@ -51,6 +51,12 @@ pub struct BenchArgs {
     /// degree >= 2: with --markdown, replaces only its section of the file.
     #[arg(long, conflicts_with_all = ["derive", "literature", "perm", "volumes", "hessian"])]
     curvature: bool,
+    /// Measure the 4D catalog filters instead: D4* against Z^4 (and BCC x Z)
+    /// at matched sample counts on the drifting Marschner-Lobb space-time
+    /// signal (RMS, prefiltered and plain) and evals/s per 4D filter: with
+    /// --markdown, replaces only its section of the file.
+    #[arg(long, conflicts_with_all = ["derive", "literature", "perm", "volumes", "hessian", "curvature"])]
+    four_d: bool,
     /// Edge of the generated out-of-core volume (default 1024; 64 with --smoke).
     #[arg(long, requires = "volumes")]
     large_edge: Option<usize>,
@@ -107,6 +113,8 @@ pub fn run(a: BenchArgs) -> Result<(), Failure> {
         volumes(&a)
     } else if a.hessian {
         hessian(&a)
+    } else if a.four_d {
+        four_d(&a)
     } else if a.curvature {
         curvature(&a)
     } else if a.references_only {
@@ -248,6 +256,60 @@ fn hessian(a: &BenchArgs) -> Result<(), Failure> {
     let report = report.map_err(|e| Failure(e.to_string()))?;
     let text = bench::hessian::markdown(&report, section.command());
     section.finish(&report, &text, bench::hessian::splice, a.json)
+}
+
+/// `--four-d`: the 4D filters' quality at matched sample counts and their speed.
+fn four_d(a: &BenchArgs) -> Result<(), Failure> {
+    let names: Vec<String> = if a.filters.is_empty() {
+        boxforge::spec::catalog::names().into_iter().map(String::from).collect()
+    } else {
+        a.filters.clone()
+    };
+    let mut flags = format!("--four-d{}", smoke_runs(a, true));
+    if !a.filters.is_empty() {
+        flags.push_str(&format!(" --filters {}", a.filters.join(",")));
+    }
+    let section = Section::new("four-dimensions", &flags, a.markdown.as_deref())?;
+    let gpu = open_gpu(a.adapter.as_deref())?;
+    let on_cpu = gpu.info.device_type == wgpu::DeviceType::Cpu;
+    // Two sample budgets (Z^4 points per axis over [-1, 1]^4).
+    let (budgets, points, speed_points, rounds): (&[usize], usize, usize, usize) = if a.smoke {
+        (&[8], 2000, 2000, 1)
+    } else {
+        (&[24, 36], 20_000, if on_cpu { 1 << 14 } else { 1 << 20 }, a.runs.unwrap_or(5))
+    };
+    let mut filters = Vec::new();
+    for name in &names {
+        let d = boxforge::derive::Derivation::new(&boxforge::spec::resolve(name)?)?;
+        if d.facts.dim == 4 {
+            filters.push(d);
+        }
+    }
+    if filters.is_empty() {
+        return Err(Failure(format!("--four-d: none of {} is a 4D filter; name 4D filters or none", names.join(", "))));
+    }
+    let steps = progress::Steps::new();
+    let mut quality = Vec::new();
+    let mut speed = Vec::new();
+    let mut run = || -> Result<(), boxforge_runtime::bench::BenchError> {
+        for &n in budgets {
+            for d in &filters {
+                steps.step(&format!("{}: RMS at the Z^4 budget n = {n}", d.filter.name));
+                quality.push(bench::four::quality(&gpu, d, n, points)?);
+            }
+        }
+        for d in &filters {
+            steps.step(&format!("{}: evals/s", d.filter.name));
+            speed.push(bench::four::speed(&gpu, d, speed_points, rounds)?);
+        }
+        Ok(())
+    };
+    let result = run();
+    steps.finish();
+    result.map_err(|e| Failure(e.to_string()))?;
+    let report = bench::four::FourDReport { adapter: gpu.describe(), points, quality, speed };
+    let text = bench::four::markdown(&report, section.command());
+    section.finish(&report, &text, bench::four::splice, a.json)
 }
 
 /// `--curvature`: the curvature error's order of convergence per filter.
@@ -462,6 +524,7 @@ fn main_report(a: BenchArgs) -> Result<(), Failure> {
                 bench::volumes::existing_section(&old),
                 bench::hessian::existing_section(&old),
                 bench::curvature::existing_section(&old),
+                bench::four::existing_section(&old),
                 bench::markdown::gpu_record_section(&old),
             ];
             for section in kept.into_iter().flatten() {

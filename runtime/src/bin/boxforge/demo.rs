@@ -45,7 +45,8 @@ pub fn run(out: &Path, size: u32, adapter: Option<&str>) -> Result<(), String> {
     for name in boxforge::spec::catalog::names() {
         let d = Derivation::new(&boxforge::spec::catalog::get(name).map_err(|e| e.to_string())?)
             .map_err(|e| e.to_string())?;
-        let files = generated_files(&d, command, &default_layouts(d.facts.dim), &ALL_VARIANTS).map_err(|e| e.to_string())?;
+        let files =
+            generated_files(&d, command, &default_layouts(d.facts.dim), &ALL_VARIANTS).map_err(|e| e.to_string())?;
         write_files(Path::new("shaders-out"), &files).map_err(|e| e.to_string())?;
     }
     steps.println(&format!("[demo] catalog generated into shaders-out/ ({:.1} s)", started.elapsed().as_secs_f64()));

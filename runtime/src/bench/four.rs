@@ -1,0 +1,218 @@
+//! Four dimensions (`boxforge bench --four-d`): quality and speed of the 4D
+//! catalog filters on the drifting Marschner-Lobb space-time signal.
+//!
+//! Quality: each lattice samples the signal at a matched sample count (as
+//! many samples per unit of space-time as Z^4 with n points per axis over
+//! [-1, 1]^4, t = (w + 1) / 2), prefiltered with the derived
+//! quasi-interpolant or not; the spline is evaluated on the device at
+//! random points of the domain and compared with the analytic signal (RMS).
+//! The sampled box is padded by the support and the prefilter's reach with
+//! the signal itself, so no boundary enters the error.
+//!
+//! Speed: evals/s of `<f>_eval` at random points, one timed kernel per filter.
+
+use super::job::{program4, timed_rounds, Job};
+use super::stats::median;
+use super::BenchError;
+use crate::gpu::Gpu;
+use crate::verify::Rng;
+use crate::volume::{marschner_lobb_drift, DeviceVolume4, LatticeVolume4};
+use boxforge::derive::Derivation;
+use boxforge::emit::{emit, EmitOptions, Layout};
+use serde::Serialize;
+use std::fmt::Write as _;
+
+/// Marks the section in BENCHMARKS.md.
+pub const SECTION_START: &str = "<!-- four-d-bench:start -->";
+/// Marks the end of the section.
+pub const SECTION_END: &str = "<!-- four-d-bench:end -->";
+
+/// One filter at one sample budget.
+#[derive(Clone, Debug, Serialize)]
+pub struct QualityRow4 {
+    pub filter: String,
+    pub lattice: String,
+    /// Z^4 points per axis over [-1, 1]^4 that the budget matches.
+    pub budget_n: usize,
+    /// Lattice samples inside [-1, 1]^4.
+    pub samples: usize,
+    /// Lattice coordinates per unit of space-time: 1 / spacing.
+    pub scale: f64,
+    /// RMS against the signal, prefiltered (quasi-interpolation).
+    pub rms_prefiltered: f64,
+    /// RMS against the signal, the samples used as they are.
+    pub rms_plain: f64,
+}
+
+/// evals/s of one filter.
+#[derive(Clone, Debug, Serialize)]
+pub struct SpeedRow4 {
+    pub filter: String,
+    pub layout: Layout,
+    pub fetches: usize,
+    /// Median evals/s over the rounds.
+    pub evals_per_s: f64,
+    pub rounds: usize,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct FourDReport {
+    pub adapter: String,
+    pub points: usize,
+    pub quality: Vec<QualityRow4>,
+    pub speed: Vec<SpeedRow4>,
+}
+
+/// The signal at world point x in [-1, 1]^4 (time t = (x_w + 1) / 2).
+fn signal(x: [f64; 4]) -> f64 {
+    marschner_lobb_drift([x[0], x[1], x[2], (x[3] + 1.0) / 2.0])
+}
+
+/// The layout a filter is stored in: packed where the lattice has cosets
+/// (one word per sample), embedded on Z^4.
+pub fn best_layout(d: &Derivation) -> Layout {
+    if d.filter.lattice.det() > 1 {
+        Layout::Packed
+    } else {
+        Layout::Embedded
+    }
+}
+
+/// A sampled box of the signal for `d` at budget `n`, prefiltered or not;
+/// returns the volume, the lattice scale and the box's half-extent U (lattice
+/// point u is stored at u + U).
+fn sampled(d: &Derivation, n: usize, prefiltered: bool) -> (LatticeVolume4, f64, i64, usize) {
+    let det = d.filter.lattice.det().unsigned_abs() as f64;
+    let h = 2.0 / (n - 1) as f64;
+    // Matched count: 1 / (det s^4) = 1 / h^4 samples per unit volume.
+    let s = h / det.powf(0.25);
+    let reach = crate::verify::support_radius(d) as i64
+        + d.prefilter.taps.iter().flat_map(|(k, _)| k.iter().map(|x| x.abs())).max().unwrap_or(0)
+        + 2;
+    let u = (1.0 / s).ceil() as i64 + reach;
+    let side = (2 * u + 1) as usize;
+    let taps: Vec<(Vec<i64>, f64)> = d.prefilter.taps.iter().map(|(k, w)| (k.clone(), w.to_f64())).collect();
+    let world = |j: &[i64]| -> [f64; 4] { std::array::from_fn(|a| j[a] as f64 * s) };
+    let mut data = vec![0f32; side.pow(4)];
+    let mut inside = 0;
+    for (i, v) in data.iter_mut().enumerate() {
+        let j: [i64; 4] = std::array::from_fn(|a| ((i / side.pow(a as u32)) % side) as i64 - u);
+        if !d.filter.lattice.contains(&j) {
+            continue;
+        }
+        if j.iter().all(|&x| (x as f64 * s).abs() <= 1.0) {
+            inside += 1;
+        }
+        *v = if prefiltered {
+            taps.iter()
+                .map(|(k, w)| {
+                    let jk: Vec<i64> = j.iter().zip(k).map(|(a, b)| a - b).collect();
+                    w * signal(world(&jk))
+                })
+                .sum::<f64>() as f32
+        } else {
+            signal(world(&j)) as f32
+        };
+    }
+    let vol = LatticeVolume4::new(d.filter.lattice.clone(), [side; 4], data).expect("a 4D box of matching size");
+    (vol, 1.0 / s, u, inside)
+}
+
+/// RMS of `d` against the signal at budget `n` (prefiltered and plain), at
+/// `points` random points of [-1, 1]^4 evaluated on the device.
+pub fn quality(gpu: &Gpu, d: &Derivation, n: usize, points: usize) -> Result<QualityRow4, BenchError> {
+    let layout = best_layout(d);
+    let name = &d.filter.name;
+    let m = emit(d, &EmitOptions { layout, kernels: false, ..Default::default() }).map_err(BenchError::emit)?;
+    let src = program4(&m.source, &format!("vec4<f32>({name}_eval(p), 0.0, 0.0, 0.0)"));
+    let mut rng = Rng(0x4D_0000 + n as u64);
+    let world: Vec<[f64; 4]> = (0..points).map(|_| std::array::from_fn(|_| -1.0 + 2.0 * rng.next_f64())).collect();
+    let mut rms = [0.0; 2];
+    let mut samples = 0;
+    let mut scale = 0.0;
+    for (slot, pre) in [(0, true), (1, false)] {
+        let (vol, sc, u, inside) = sampled(d, n, pre);
+        (samples, scale) = (inside, sc);
+        let pts: Vec<[f32; 4]> = world.iter().map(|x| x.map(|c| (c * sc + u as f64) as f32)).collect();
+        let dv = DeviceVolume4::new(gpu, &vol, layout)?;
+        let job = Job::new4(gpu, &src, &m.file_name, &dv, &pts)?;
+        job.time(gpu)?;
+        let out = job.outputs(gpu)?;
+        let sum: f64 = out.iter().zip(&world).map(|(o, x)| (o[0] as f64 - signal(*x)).powi(2)).sum();
+        rms[slot] = (sum / points as f64).sqrt();
+    }
+    Ok(QualityRow4 {
+        filter: name.clone(),
+        lattice: d.filter.lattice.name.clone(),
+        budget_n: n,
+        samples,
+        scale,
+        rms_prefiltered: rms[0],
+        rms_plain: rms[1],
+    })
+}
+
+/// evals/s of `d`'s `<f>_eval` on random data at `points` random points.
+pub fn speed(gpu: &Gpu, d: &Derivation, points: usize, rounds: usize) -> Result<SpeedRow4, BenchError> {
+    let layout = best_layout(d);
+    let name = &d.filter.name;
+    let m = emit(d, &EmitOptions { layout, kernels: false, ..Default::default() }).map_err(BenchError::emit)?;
+    let src = program4(&m.source, &format!("vec4<f32>({name}_eval(p), 0.0, 0.0, 0.0)"));
+    let vol = crate::verify::four::random_volume4(d, 9);
+    let pts = crate::verify::four::random_points4(d, &vol, points, 9);
+    let dv = DeviceVolume4::new(gpu, &vol, layout)?;
+    let job = Job::new4(gpu, &src, &m.file_name, &dv, &pts)?;
+    let rates = timed_rounds(gpu, &[&job], rounds.max(1))?;
+    let rates = rates.into_iter().next().unwrap_or_default();
+    Ok(SpeedRow4 {
+        filter: name.clone(),
+        layout,
+        fetches: m.stats.fetches_per_eval,
+        evals_per_s: median(&rates),
+        rounds,
+    })
+}
+
+/// The section of BENCHMARKS.md.
+pub fn markdown(r: &FourDReport, command: &str) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "{SECTION_START}\n## Four dimensions: D4* against Z^4 on a space-time signal\n");
+    let _ = writeln!(
+        s,
+        "Measured by `{command}` on {}. The drifting Marschner-Lobb signal (its ripple frequency \
+         rises from 6 to 9 over time; space [-1, 1]^3, time [0, 1] mapped to [-1, 1]) sampled on each \
+         lattice at a matched count: as many samples per unit of space-time as Z^4 with n points per axis \
+         (the samples column counts those inside the domain). RMS against the analytic signal at {} random \
+         points of the domain, evaluated by the generated 4D modules on the device; prefiltered = the \
+         derived quasi-interpolation prefilter applied first.\n",
+        r.adapter, r.points
+    );
+    let _ = writeln!(s, "| n (Z^4 budget) | filter | lattice | samples | RMS prefiltered | RMS plain |");
+    let _ = writeln!(s, "|---|---|---|---|---|---|");
+    for q in &r.quality {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} | {:.4e} | {:.4e} |",
+            q.budget_n, q.filter, q.lattice, q.samples, q.rms_prefiltered, q.rms_plain
+        );
+    }
+    let _ = writeln!(s, "\nEvaluation throughput of `<f>_eval` (random data, random points):\n");
+    let _ =
+        writeln!(s, "| filter | layout | fetches | evals/s (median of {}) |", r.speed.first().map_or(0, |x| x.rounds));
+    let _ = writeln!(s, "|---|---|---|---|");
+    for v in &r.speed {
+        let _ = writeln!(s, "| {} | {} | {} | {:.3e} |", v.filter, v.layout.name(), v.fetches, v.evals_per_s);
+    }
+    let _ = writeln!(s, "{SECTION_END}");
+    s
+}
+
+/// `file` with this section replaced (or appended).
+pub fn splice(file: &str, section: &str) -> String {
+    super::derive::splice_between(file, section, SECTION_START, SECTION_END)
+}
+
+/// This section of `file`, if it has one.
+pub fn existing_section(file: &str) -> Option<&str> {
+    super::derive::section_between(file, SECTION_START, SECTION_END)
+}
