@@ -219,11 +219,16 @@ fn harness(t: &Translated, target: Target) -> String {
     let d = t.dim;
     let (point, ipoint) = match (target, d) {
         (Target::Hlsl, 2) => ("float2(0.5, 0.25)", "int2(0, 0)"),
+        (Target::Hlsl, 4) => ("float4(0.5, 0.25, 0.125, 0.0625)", "int4(0, 0, 0, 0)"),
+        (_, 4) => ("vec4(0.5, 0.25, 0.125, 0.0625)", "ivec4(0)"),
         (Target::Hlsl, _) => ("float3(0.5, 0.25, 0.125)", "int3(0, 0, 0)"),
         (_, 2) => ("vec2(0.5, 0.25)", "ivec2(0)"),
         _ => ("vec3(0.5, 0.25, 0.125)", "ivec3(0)"),
     };
+    // 4D: eval_grad returns the module's `<f>_Gradient` struct (no vec5).
+    let gradient_struct = format!("{f}_Gradient");
     let grad = match (target, d) {
+        (_, 4) => gradient_struct.as_str(),
         (Target::Hlsl, 2) => "float3",
         (Target::Hlsl, _) => "float4",
         (_, 2) => "vec3",

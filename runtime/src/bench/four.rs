@@ -94,26 +94,44 @@ fn sampled(d: &Derivation, n: usize, prefiltered: bool) -> (LatticeVolume4, f64,
     let taps: Vec<(Vec<i64>, f64)> = d.prefilter.taps.iter().map(|(k, w)| (k.clone(), w.to_f64())).collect();
     let world = |j: &[i64]| -> [f64; 4] { std::array::from_fn(|a| j[a] as f64 * s) };
     let mut data = vec![0f32; side.pow(4)];
-    let mut inside = 0;
-    for (i, v) in data.iter_mut().enumerate() {
-        let j: [i64; 4] = std::array::from_fn(|a| ((i / side.pow(a as u32)) % side) as i64 - u);
-        if !d.filter.lattice.contains(&j) {
-            continue;
-        }
-        if j.iter().all(|&x| (x as f64 * s).abs() <= 1.0) {
-            inside += 1;
-        }
-        *v = if prefiltered {
-            taps.iter()
-                .map(|(k, w)| {
-                    let jk: Vec<i64> = j.iter().zip(k).map(|(a, b)| a - b).collect();
-                    w * signal(world(&jk))
+    // One w-slab per task, on every core.
+    let slab = side.pow(3);
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let per = data.len().div_ceil(threads).div_ceil(slab) * slab;
+    let inside: usize = std::thread::scope(|scope| {
+        let handles: Vec<_> = data
+            .chunks_mut(per.max(slab))
+            .enumerate()
+            .map(|(c, chunk)| {
+                let (taps, world) = (&taps, &world);
+                scope.spawn(move || {
+                    let mut inside = 0;
+                    for (o, v) in chunk.iter_mut().enumerate() {
+                        let i = c * per.max(slab) + o;
+                        let j: [i64; 4] = std::array::from_fn(|a| ((i / side.pow(a as u32)) % side) as i64 - u);
+                        if !d.filter.lattice.contains(&j) {
+                            continue;
+                        }
+                        if j.iter().all(|&x| (x as f64 * s).abs() <= 1.0) {
+                            inside += 1;
+                        }
+                        *v = if prefiltered {
+                            taps.iter()
+                                .map(|(k, w)| {
+                                    let jk: Vec<i64> = j.iter().zip(k).map(|(a, b)| a - b).collect();
+                                    w * signal(world(&jk))
+                                })
+                                .sum::<f64>() as f32
+                        } else {
+                            signal(world(&j)) as f32
+                        };
+                    }
+                    inside
                 })
-                .sum::<f64>() as f32
-        } else {
-            signal(world(&j)) as f32
-        };
-    }
+            })
+            .collect();
+        handles.into_iter().map(|h| h.join().expect("sampling")).sum()
+    });
     let vol = LatticeVolume4::new(d.filter.lattice.clone(), [side; 4], data).expect("a 4D box of matching size");
     (vol, 1.0 / s, u, inside)
 }

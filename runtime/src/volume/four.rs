@@ -144,12 +144,14 @@ impl DeviceVolume4 {
         let words = match layout {
             Layout::Embedded => vol.embedded_words(),
             Layout::Packed => vol.packed_words()?,
-            other => return Err(VolumeError::Series {
-                message: format!(
+            other => {
+                return Err(VolumeError::Series {
+                    message: format!(
                     "4D samples are a storage buffer: the {} layout is not offered; use --layout embedded or packed",
                     other.name()
                 ),
-            }),
+                })
+            }
         };
         let bytes = 4 * words.len();
         let limit = gpu.device.limits().max_storage_buffer_binding_size as usize;

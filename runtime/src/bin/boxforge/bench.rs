@@ -276,7 +276,7 @@ fn four_d(a: &BenchArgs) -> Result<(), Failure> {
     let (budgets, points, speed_points, rounds): (&[usize], usize, usize, usize) = if a.smoke {
         (&[8], 2000, 2000, 1)
     } else {
-        (&[24, 36], 20_000, if on_cpu { 1 << 14 } else { 1 << 20 }, a.runs.unwrap_or(5))
+        (&[32, 48], 20_000, if on_cpu { 1 << 14 } else { 1 << 20 }, a.runs.unwrap_or(5))
     };
     let mut filters = Vec::new();
     for name in &names {
