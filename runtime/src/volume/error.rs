@@ -70,6 +70,11 @@ pub enum VolumeError {
         "the file {path} shrank from {old} to {new} bytes while boxforge read it; do not modify a volume while it is rendered (let the writer finish, then open it again)"
     )]
     Shrunk { path: PathBuf, old: u64, new: u64 },
+    /// 4D lattice samples that cannot be built or stored: a box that does
+    /// not match its data, a layout a storage buffer cannot take, a buffer
+    /// past the adapter's binding limit (the message names the fix).
+    #[error("{message}")]
+    FourD { message: String },
     /// A time series (4D data) that cannot be read as one: no frames,
     /// frames of different dims, a file of the wrong length or rank.
     #[error("time series: {message}")]

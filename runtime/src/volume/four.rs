@@ -43,11 +43,11 @@ impl LatticeVolume4 {
         let expected = checked_count([dims[0], dims[1], dims[2]])?
             .checked_mul(dims[3])
             .filter(|&n| n > 0 && n <= i32::MAX as usize)
-            .ok_or_else(|| VolumeError::Series {
+            .ok_or_else(|| VolumeError::FourD {
                 message: format!("a 4D box of {dims:?} points is empty or past i32 indexing: use a smaller box"),
             })?;
         if data.len() != expected {
-            return Err(VolumeError::Series {
+            return Err(VolumeError::FourD {
                 message: format!(
                     "{} values for a 4D box of {dims:?} need {expected}: build it with matching dims and data",
                     data.len()
@@ -145,7 +145,7 @@ impl DeviceVolume4 {
             Layout::Embedded => vol.embedded_words(),
             Layout::Packed => vol.packed_words()?,
             other => {
-                return Err(VolumeError::Series {
+                return Err(VolumeError::FourD {
                     message: format!(
                     "4D samples are a storage buffer: the {} layout is not offered; use --layout embedded or packed",
                     other.name()
@@ -156,7 +156,7 @@ impl DeviceVolume4 {
         let bytes = 4 * words.len();
         let limit = gpu.device.limits().max_storage_buffer_binding_size as usize;
         if bytes > limit {
-            return Err(VolumeError::Series {
+            return Err(VolumeError::FourD {
                 message: format!(
                     "the 4D samples need {} MiB in the {} layout, over this adapter's storage binding limit of {} MiB: \
                      use fewer frames or a smaller volume{}",

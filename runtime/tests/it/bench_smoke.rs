@@ -97,3 +97,29 @@ fn hessian_bench_times_both_rivals_after_they_agree() {
     let md = hessian::markdown(&r, "test");
     assert!(md.contains(hessian::SECTION_START) && md.contains("separable tricubic"));
 }
+
+/// `bench --four-d`'s parts: the RMS falls as the budget grows, a filter of
+/// approximation order 2 has no prefilter to apply (prefiltered = plain),
+/// the 4D modules time, and the verdict names the winner per budget.
+#[test]
+fn four_d_bench_measures_rms_and_rates() {
+    use boxforge_runtime::bench::four;
+    let gpu = crate::common::gpu();
+    let d = |n: &str| boxforge::derive::Derivation::new(&boxforge::spec::catalog::get(n).unwrap()).unwrap();
+    let (z4, d4s) = (d("z4_linear"), d("d4star8"));
+    let coarse = four::quality(gpu, &z4, 12, 2000).unwrap();
+    let fine = four::quality(gpu, &z4, 40, 2000).unwrap();
+    assert!(fine.rms_prefiltered < 0.8 * coarse.rms_prefiltered, "{coarse:?} {fine:?}");
+    assert_eq!(coarse.rms_prefiltered, coarse.rms_plain, "z4_linear's prefilter is the identity");
+    assert_eq!(coarse.samples, 11usize.pow(4), "11 points per axis of [-1, 1] at spacing 2/11");
+    let q = four::quality(gpu, &d4s, 12, 2000).unwrap();
+    assert!(q.rms_prefiltered.is_finite() && q.rms_prefiltered != q.rms_plain, "{q:?}");
+    // Matched density: within 15% of Z^4's count inside the domain.
+    assert!((q.samples as f64 / coarse.samples as f64 - 1.0).abs() < 0.15, "{q:?}");
+    let speed = four::speed(gpu, &d4s, 1000, 1).unwrap();
+    assert!(speed.evals_per_s > 0.0 && speed.fetches == 60, "{speed:?}");
+    let v = four::verdicts(&[coarse.clone(), q.clone()]);
+    assert_eq!(v.len(), 1);
+    let wins = q.rms_prefiltered < coarse.rms_prefiltered;
+    assert_eq!(v[0].contains("D4* wins"), wins, "{v:?}");
+}

@@ -74,3 +74,24 @@ fn bricked_4d_volumes_are_refused_with_the_fix() {
         assert!(e.contains("storage buffer") && !e.contains('\n'), "{e}");
     }
 }
+
+/// `boxforge verify` takes a 4D filter: it passes on the device, and what a
+/// storage buffer cannot do exits 2 with one line.
+#[test]
+fn verify_cli_runs_4d_filters_and_refuses_what_they_cannot_do() {
+    let bin = env!("CARGO_BIN_EXE_boxforge");
+    let run = |args: &[&str]| std::process::Command::new(bin).args(args).output().unwrap();
+    let ok = run(&["verify", "--filter", "z4_linear", "--layout", "packed", "--points", "300"]);
+    let text = String::from_utf8_lossy(&ok.stdout);
+    assert!(ok.status.success() && text.contains("PASSED") && text.contains("eval_hessian"), "{text}");
+    for args in [
+        &["verify", "--filter", "z4_linear", "--layout", "bricked", "--points", "10"][..],
+        &["verify", "--filter", "z4_linear", "--fetch", "linear", "--layout", "packed", "--points", "10"],
+        &["verify", "--filter", "z4_linear", "--target", "glsl", "--points", "10"],
+    ] {
+        let out = run(args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert_eq!(err.trim().lines().count(), 1, "{args:?}: {err}");
+    }
+}
