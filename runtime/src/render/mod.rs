@@ -8,6 +8,7 @@ pub mod blocks;
 pub mod camera;
 pub mod dvr;
 mod error;
+pub mod four;
 mod host;
 pub mod iso;
 pub mod paged;

@@ -57,6 +57,12 @@ impl LatticeVolume4 {
         Ok(LatticeVolume4 { lattice, dims, data })
     }
 
+    /// A Cartesian time series as samples of Z^4: frame k at w = k.
+    pub fn from_series(series: &super::VolumeSeries) -> LatticeVolume4 {
+        let lattice = Lattice::builtin("z4").expect("z4 is built in");
+        LatticeVolume4 { lattice, dims: series.dims, data: series.data.clone() }
+    }
+
     /// Sample at integer position `j` (4 entries), clamped to the box, as
     /// the emitted clamped fetch reads it.
     pub fn get(&self, j: &[i64]) -> f32 {

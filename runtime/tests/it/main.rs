@@ -26,5 +26,6 @@ mod perm;
 mod prefilter;
 mod pt;
 mod render;
+mod render_4d;
 mod targets_run;
 mod web;

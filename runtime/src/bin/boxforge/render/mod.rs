@@ -3,6 +3,7 @@
 //! scheme: see dvr.rs), to PNG on the GPU.
 
 mod dvr;
+mod four;
 mod paged;
 
 use crate::common::{parse_view, Failure, FormatArg, LayoutArg};
@@ -51,7 +52,9 @@ pub struct RenderArgs {
     peel: bool,
     #[arg(long)]
     filter: String,
-    /// `ml:N` (Marschner-Lobb, about N^3 samples), a .nii/.nii.gz file, or a raw file with --raw.
+    /// `ml:N` (Marschner-Lobb, about N^3 samples), a .nii/.nii.gz file, or a raw file with --raw;
+    /// with a 4D filter a time series: `ml-drift:N,F` (the drifting Marschner-Lobb signal, N^3
+    /// samples in F frames), a 4D .nii/.nii.gz, or a folder of numbered raw frames with --raw.
     #[arg(long)]
     volume: String,
     /// Raw volume format: nx,ny,nz,type (type u8, u16 or f32).
@@ -137,6 +140,14 @@ pub struct RenderArgs {
     no_bounds_cache: bool,
     #[arg(long)]
     adapter: Option<String>,
+    /// 4D filters: the time to draw, in frames of the series (any real in
+    /// 0..frames-1, not only the sampled ones; default: the middle).
+    #[arg(long, allow_negative_numbers = true)]
+    time: Option<f32>,
+    /// 4D filters: an animation of N frames over the whole series, written
+    /// as numbered PNGs beside --out (out-0000.png, ...).
+    #[arg(long, conflicts_with = "time")]
+    frames: Option<usize>,
     #[arg(long, default_value = "out.png")]
     out: std::path::PathBuf,
 }
@@ -258,6 +269,21 @@ impl RendererArg {
 }
 
 pub fn run(a: RenderArgs) -> Result<(), Failure> {
+    // 4D filters draw a time series at any t (render/four.rs).
+    if Scheme::parse(&a.filter).is_none() {
+        if let Ok(f) = spec::resolve(&a.filter) {
+            if f.dim() == 4 {
+                let d = Derivation::new(&f)?;
+                return four::run(&a, &d);
+            }
+        }
+    }
+    if a.time.is_some() || a.frames.is_some() {
+        return Err(Failure(format!(
+            "--time and --frames draw time series with a 4D filter; {} is not one (see boxforge list: d4star8, z4_cubic, ...)",
+            a.filter
+        )));
+    }
     let (az, el) = parse_view(&a.view)?;
     let (size, mode, cache) = (a.size, a.mode.name(), a.cache.name());
     request::check_render_numbers(size, a.step, a.iso, az, el)?;

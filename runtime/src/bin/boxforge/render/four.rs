@@ -1,0 +1,135 @@
+//! `boxforge render` with a 4D filter: an isosurface of a time series at
+//! any time t (`--time`), or an animation of `--frames` PNGs over the
+//! series, by evaluating the 4D spline at (x, y, z, t) on the device
+//! (`boxforge_runtime::render::four`).
+
+use super::RenderArgs;
+use crate::common::{parse_view, Failure};
+use crate::request;
+use boxforge::derive::Derivation;
+use boxforge::emit::Layout;
+use boxforge_runtime::gpu::Gpu;
+use boxforge_runtime::render::four::{FourIsoOptions, FourIsoRenderer};
+use boxforge_runtime::render::Camera;
+use boxforge_runtime::volume::{parse_raw_spec, LatticeVolume4, VolumeSeries};
+use std::path::{Path, PathBuf};
+
+/// The series `--volume` names: `ml-drift:N,F` (the drifting Marschner-Lobb
+/// signal, N^3 samples in F frames), a `.nii`/`.nii.gz` with a fourth
+/// dimension, or a folder of numbered raw frames with `--raw nx,ny,nz,type`.
+fn load_series(volume: &str, raw: Option<&str>) -> Result<VolumeSeries, Failure> {
+    if let Some(spec) = volume.strip_prefix("ml-drift:") {
+        let bad =
+            || Failure(format!("--volume {volume}: write ml-drift:N,F (N^3 samples per frame, F frames; N, F >= 2)"));
+        let (n, f) = spec.split_once(',').ok_or_else(bad)?;
+        let (n, f): (usize, usize) = (n.trim().parse().map_err(|_| bad())?, f.trim().parse().map_err(|_| bad())?);
+        if n < 2 || f < 2 || n > 512 || f > 4096 {
+            return Err(bad());
+        }
+        return VolumeSeries::marschner_lobb_drift([n, n, n, f]).map_err(|e| Failure(e.to_string()));
+    }
+    let path = Path::new(volume);
+    if path.is_dir() {
+        let spec = raw.ok_or_else(|| {
+            Failure(format!("--volume {volume} is a folder of raw frames: give their format with --raw nx,ny,nz,type"))
+        })?;
+        let (dims, ty) = parse_raw_spec(spec).map_err(|e| Failure(format!("--raw {e}")))?;
+        return VolumeSeries::load_raw_folder(path, dims, ty).map_err(|e| Failure(e.to_string()));
+    }
+    VolumeSeries::load_nifti(path).map_err(|e| Failure(e.to_string()))
+}
+
+/// `out.png` -> `out-0003.png`.
+fn numbered(out: &Path, k: usize) -> PathBuf {
+    let stem = out.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "frame".into());
+    out.with_file_name(format!("{stem}-{k:04}.png"))
+}
+
+pub(super) fn run(a: &RenderArgs, d: &Derivation) -> Result<(), Failure> {
+    let (az, el) = parse_view(&a.view)?;
+    request::check_render_numbers(a.size, a.step, a.iso, az, el)?;
+    request::check_output_file(&a.out, "--out")?;
+    // What the 4D renderer does not do yet, refused by name.
+    let refuse = |flag: &str| -> Result<(), Failure> {
+        Err(Failure(format!(
+            "{flag} is not offered for 4D filters yet (they render isosurfaces, fixed steps): drop it"
+        )))
+    };
+    if a.mode != super::ModeArg::Iso {
+        return refuse("--mode dvr");
+    }
+    if a.gpu_budget.is_some() {
+        return refuse("--gpu-budget");
+    }
+    if a.hit != super::HitArg::Step {
+        return refuse("--hit exact");
+    }
+    if a.shade != super::ShadeArg::Phong {
+        return refuse("--shade");
+    }
+    if a.cache != super::CacheArg::None || a.renderer != super::RendererArg::Raycast {
+        return refuse("--cache/--renderer");
+    }
+    if a.perspective {
+        return refuse("--perspective");
+    }
+    let layout = Layout::from(a.layout);
+    if layout.is_bricked() {
+        return Err(Failure(format!(
+            "--layout {}: 4D samples are a storage buffer; use --layout embedded or packed",
+            layout.name()
+        )));
+    }
+    if d.filter.lattice.name != "z4" {
+        return Err(Failure(format!(
+            "{} is on the {} lattice, but a time series is Cartesian (Z^4): resampling a series onto another 4D \
+             lattice is not offered yet; use z4_linear or z4_cubic",
+            d.filter.name, d.filter.lattice.name
+        )));
+    }
+    let series = load_series(&a.volume, a.raw.as_deref())?;
+    let last = (series.frames() - 1) as f32;
+    let times: Vec<f32> = match (a.time, a.frames) {
+        (Some(_), Some(_)) => return Err(Failure("--time draws one frame and --frames an animation: give one".into())),
+        (Some(t), None) if !(0.0..=last).contains(&t) => {
+            return Err(Failure(format!("--time {t}: the series has frames 0 to {last}; give a time in that range")))
+        }
+        (Some(t), None) => vec![t],
+        (None, Some(0)) => return Err(Failure("--frames 0: give at least 1 frame".into())),
+        (None, Some(n)) => (0..n).map(|k| if n == 1 { 0.0 } else { last * k as f32 / (n - 1) as f32 }).collect(),
+        (None, None) => vec![0.5 * last],
+    };
+    let gpu = Gpu::new(a.adapter.as_deref()).map_err(|e| Failure(e.to_string()))?;
+    let vol = LatticeVolume4::from_series(&series);
+    let renderer = FourIsoRenderer::new(&gpu, d, &vol, layout).map_err(|e| Failure(e.to_string()))?;
+    let o = FourIsoOptions {
+        width: a.size,
+        height: a.size,
+        iso: a.iso,
+        step: a.step,
+        camera: Camera { azimuth: az, elevation: el, perspective: false },
+    };
+    let bar = boxforge_runtime::progress::bar(times.len() as u64, "frames");
+    for (k, &t) in times.iter().enumerate() {
+        let rgba = renderer.render(t, &o).map_err(|e| Failure(e.to_string()))?;
+        let path = if times.len() == 1 { a.out.clone() } else { numbered(&a.out, k) };
+        boxforge_runtime::render::iso::write_png(&path, a.size, a.size, &rgba)
+            .map_err(|e| Failure(format!("cannot write {}: {e}", path.display())))?;
+        bar.inc(1);
+        if times.len() == 1 {
+            outln!("{} at t = {t} (frames 0..{last}) on {}: {}", d.filter.name, gpu.describe(), path.display());
+        }
+    }
+    bar.finish_and_clear();
+    if times.len() > 1 {
+        outln!(
+            "{} frames of {} over t = 0..{last} on {}: {} .. {}",
+            times.len(),
+            d.filter.name,
+            gpu.describe(),
+            numbered(&a.out, 0).display(),
+            numbered(&a.out, times.len() - 1).display()
+        );
+    }
+    Ok(())
+}
