@@ -63,6 +63,103 @@ impl LatticeVolume4 {
         LatticeVolume4 { lattice, dims: series.dims, data: series.data.clone() }
     }
 
+    /// Samples of `lattice` over a box of `dims` from `value` at each
+    /// lattice point (0 elsewhere), computed on every core.
+    pub fn from_fn(
+        lattice: &Lattice,
+        dims: [usize; 4],
+        value: impl Fn([usize; 4]) -> f32 + Sync,
+    ) -> Result<LatticeVolume4, VolumeError> {
+        let n: usize = dims.iter().product();
+        let mut data = vec![0f32; n];
+        let threads = std::thread::available_parallelism().map_or(1, |t| t.get());
+        let per = n.div_ceil(threads).max(1);
+        std::thread::scope(|s| {
+            for (c, chunk) in data.chunks_mut(per).enumerate() {
+                let value = &value;
+                s.spawn(move || {
+                    for (o, v) in chunk.iter_mut().enumerate() {
+                        let i = c * per + o;
+                        let j = [
+                            i % dims[0],
+                            (i / dims[0]) % dims[1],
+                            (i / (dims[0] * dims[1])) % dims[2],
+                            i / (dims[0] * dims[1] * dims[2]),
+                        ];
+                        if lattice.contains(&j.map(|x| x as i64)) {
+                            *v = value(j);
+                        }
+                    }
+                });
+            }
+        });
+        LatticeVolume4::new(lattice.clone(), dims, data)
+    }
+
+    /// The lattice subset of a Cartesian series (the samples at lattice
+    /// points, 1/det of them): lattice units are the series' voxels and frames.
+    pub fn subset(lattice: &Lattice, series: &super::VolumeSeries) -> Result<LatticeVolume4, VolumeError> {
+        let d = series.dims;
+        LatticeVolume4::from_fn(lattice, d, |j| series.data[index(d, j)])
+    }
+
+    /// The box of `lattice` with as many samples per unit of space-time as
+    /// Z^4 has over `dims` (each axis times det^(1/4)).
+    pub fn matched_dims(lattice: &Lattice, dims: [usize; 4]) -> [usize; 4] {
+        let f = (lattice.det().unsigned_abs() as f64).powf(0.25);
+        dims.map(|n| ((n as f64 * f).round() as usize).max(2))
+    }
+
+    /// A Cartesian series resampled on `lattice` at a matched sample count
+    /// ([`LatticeVolume4::matched_dims`]) by quadrilinear interpolation;
+    /// also returns the lattice units per frame of the series.
+    pub fn resample(lattice: &Lattice, series: &super::VolumeSeries) -> Result<(LatticeVolume4, f64), VolumeError> {
+        let d = series.dims;
+        let dims = LatticeVolume4::matched_dims(lattice, d);
+        let scale: [f64; 4] = std::array::from_fn(|a| (d[a] as f64 - 1.0).max(0.0) / (dims[a] as f64 - 1.0));
+        let at = |x: [f64; 4]| -> f32 {
+            let mut acc = 0.0f64;
+            let base: [usize; 4] = std::array::from_fn(|a| (x[a].floor() as usize).min(d[a].saturating_sub(2)));
+            let frac: [f64; 4] = std::array::from_fn(|a| if d[a] > 1 { x[a] - base[a] as f64 } else { 0.0 });
+            for corner in 0..16usize {
+                let mut w = 1.0;
+                let mut j = [0usize; 4];
+                for a in 0..4 {
+                    let bit = corner >> a & 1;
+                    w *= if bit == 1 { frac[a] } else { 1.0 - frac[a] };
+                    j[a] = (base[a] + bit).min(d[a] - 1);
+                }
+                if w != 0.0 {
+                    acc += w * series.data[index(d, j)] as f64;
+                }
+            }
+            acc as f32
+        };
+        let vol = LatticeVolume4::from_fn(lattice, dims, |j| at(std::array::from_fn(|a| j[a] as f64 * scale[a])))?;
+        Ok((vol, 1.0 / scale[3]))
+    }
+
+    /// The drifting Marschner-Lobb signal sampled directly on `lattice` at
+    /// the count of `n`^3 x `frames` Cartesian samples (space [-1, 1]^3,
+    /// time [0, 1]); also returns the lattice units per frame of that series.
+    pub fn marschner_lobb_drift(
+        lattice: &Lattice,
+        n: usize,
+        frames: usize,
+    ) -> Result<(LatticeVolume4, f64), VolumeError> {
+        let dims = LatticeVolume4::matched_dims(lattice, [n, n, n, frames]);
+        let at = |j: usize, m: usize| j as f64 / (m - 1) as f64;
+        let vol = LatticeVolume4::from_fn(lattice, dims, |j| {
+            super::marschner_lobb_drift([
+                -1.0 + 2.0 * at(j[0], dims[0]),
+                -1.0 + 2.0 * at(j[1], dims[1]),
+                -1.0 + 2.0 * at(j[2], dims[2]),
+                at(j[3], dims[3]),
+            ]) as f32
+        })?;
+        Ok((vol, (dims[3] - 1) as f64 / (frames.max(2) - 1) as f64))
+    }
+
     /// Sample at integer position `j` (4 entries), clamped to the box, as
     /// the emitted clamped fetch reads it.
     pub fn get(&self, j: &[i64]) -> f32 {
@@ -251,6 +348,40 @@ mod tests {
         assert_eq!(&w[..4], &[4, 4, 4, 2]);
         assert_eq!(w.len(), 4 + 128);
         assert_eq!(f32::from_bits(w[4 + 1 + 4 + 16 + 64]), v.get(&[1, 1, 1, 1]));
+    }
+
+    /// Quadrilinear resampling reproduces a function linear in each
+    /// coordinate at the scaled lattice points; the subset keeps the lattice
+    /// points' samples.
+    #[test]
+    fn resample_and_subset_of_a_series() {
+        let dims = [6, 5, 4, 5];
+        let f = |x: [f64; 4]| 0.5 + 0.1 * x[0] - 0.2 * x[1] + 0.05 * x[2] + 0.3 * x[3];
+        let data: Vec<f32> = (0..dims.iter().product())
+            .map(|i: usize| {
+                let j = [i % 6, (i / 6) % 5, (i / 30) % 4, i / 120];
+                f(j.map(|x| x as f64)) as f32
+            })
+            .collect();
+        let series = crate::volume::VolumeSeries::new(dims, data).unwrap();
+        let d4s = Lattice::builtin("d4star").unwrap();
+        let (r, per_frame) = LatticeVolume4::resample(&d4s, &series).unwrap();
+        assert_eq!(r.dims, LatticeVolume4::matched_dims(&d4s, dims));
+        assert!((per_frame - (r.dims[3] - 1) as f64 / 4.0).abs() < 1e-12);
+        let scale: [f64; 4] = std::array::from_fn(|a| (dims[a] - 1) as f64 / (r.dims[a] - 1) as f64);
+        for (i, v) in r.data.iter().enumerate() {
+            let n = r.dims;
+            let j = [i % n[0], (i / n[0]) % n[1], (i / (n[0] * n[1])) % n[2], i / (n[0] * n[1] * n[2])];
+            if d4s.contains(&j.map(|x| x as i64)) {
+                let want = f(std::array::from_fn(|a| j[a] as f64 * scale[a]));
+                assert!((*v as f64 - want).abs() < 1e-5, "at {j:?}: {v} vs {want}");
+            } else {
+                assert_eq!(*v, 0.0);
+            }
+        }
+        let s = LatticeVolume4::subset(&d4s, &series).unwrap();
+        assert_eq!(s.get(&[1, 1, 1, 1]), series.data[1 + 6 * (1 + 5 * (1 + 4))]);
+        assert_eq!(s.get(&[1, 0, 0, 0]), 0.0);
     }
 
     #[test]

@@ -87,11 +87,29 @@ fn render_cli_draws_time_series() {
     ]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     assert!(dir.as_path().join("a-0000.png").exists() && dir.as_path().join("a-0001.png").exists());
+    // D4*: the signal sampled on the lattice at the matched count.
+    let d4s = dir.as_path().join("d.png");
+    let out = run(&[
+        "render",
+        "--filter",
+        "d4star8",
+        "--volume",
+        "ml-drift:12,4",
+        "--time",
+        "1.5",
+        "--layout",
+        "packed",
+        "--size",
+        "16",
+        "--out",
+        d4s.to_str().unwrap(),
+    ]);
+    assert!(out.status.success() && d4s.exists(), "{}", String::from_utf8_lossy(&out.stderr));
     let bad = dir.as_path().join("bad.png");
     for args in [
         &["--filter", "z4_linear", "--volume", "ml-drift:16,4", "--time", "7"][..],
         &["--filter", "z4_linear", "--volume", "ml-drift:16,4", "--mode", "dvr"],
-        &["--filter", "d4star8", "--volume", "ml-drift:16,4"],
+        &["--filter", "d4star8", "--volume", "ml-drift:16,4", "--layout", "bricked"],
         &["--filter", "bcc7", "--volume", "ml:16", "--time", "1"],
         &["--filter", "z4_linear", "--volume", "ml-drift:16"],
     ] {

@@ -8,16 +8,22 @@ use crate::common::{parse_view, Failure};
 use crate::request;
 use boxforge::derive::Derivation;
 use boxforge::emit::Layout;
+use boxforge::spec::lattice::Lattice;
 use boxforge_runtime::gpu::Gpu;
 use boxforge_runtime::render::four::{FourIsoOptions, FourIsoRenderer};
 use boxforge_runtime::render::Camera;
 use boxforge_runtime::volume::{parse_raw_spec, LatticeVolume4, VolumeSeries};
 use std::path::{Path, PathBuf};
 
-/// The series `--volume` names: `ml-drift:N,F` (the drifting Marschner-Lobb
-/// signal, N^3 samples in F frames), a `.nii`/`.nii.gz` with a fourth
-/// dimension, or a folder of numbered raw frames with `--raw nx,ny,nz,type`.
-fn load_series(volume: &str, raw: Option<&str>) -> Result<VolumeSeries, Failure> {
+/// The samples `--volume` names on the filter's lattice, with the lattice
+/// units per frame and the number of frames: `ml-drift:N,F` (the drifting
+/// Marschner-Lobb signal, N^3 samples in F frames, sampled on the lattice at
+/// that count), a `.nii`/`.nii.gz` with a fourth dimension, or a folder of
+/// numbered raw frames with `--raw nx,ny,nz,type` (Cartesian series: as they
+/// are on Z^4, else their lattice subset or, with --resample, resampled at a
+/// matched count).
+fn load_volume(a: &RenderArgs, lattice: &Lattice) -> Result<(LatticeVolume4, f64, usize), Failure> {
+    let volume = a.volume.as_str();
     if let Some(spec) = volume.strip_prefix("ml-drift:") {
         let bad =
             || Failure(format!("--volume {volume}: write ml-drift:N,F (N^3 samples per frame, F frames; N, F >= 2)"));
@@ -26,17 +32,30 @@ fn load_series(volume: &str, raw: Option<&str>) -> Result<VolumeSeries, Failure>
         if n < 2 || f < 2 || n > 512 || f > 4096 {
             return Err(bad());
         }
-        return VolumeSeries::marschner_lobb_drift([n, n, n, f]).map_err(|e| Failure(e.to_string()));
+        let (vol, per_frame) =
+            LatticeVolume4::marschner_lobb_drift(lattice, n, f).map_err(|e| Failure(e.to_string()))?;
+        return Ok((vol, per_frame, f));
     }
     let path = Path::new(volume);
-    if path.is_dir() {
-        let spec = raw.ok_or_else(|| {
+    let series = if path.is_dir() {
+        let spec = a.raw.as_deref().ok_or_else(|| {
             Failure(format!("--volume {volume} is a folder of raw frames: give their format with --raw nx,ny,nz,type"))
         })?;
         let (dims, ty) = parse_raw_spec(spec).map_err(|e| Failure(format!("--raw {e}")))?;
-        return VolumeSeries::load_raw_folder(path, dims, ty).map_err(|e| Failure(e.to_string()));
-    }
-    VolumeSeries::load_nifti(path).map_err(|e| Failure(e.to_string()))
+        VolumeSeries::load_raw_folder(path, dims, ty).map_err(|e| Failure(e.to_string()))?
+    } else {
+        VolumeSeries::load_nifti(path).map_err(|e| Failure(e.to_string()))?
+    };
+    let frames = series.frames();
+    let err = |e: boxforge_runtime::volume::VolumeError| Failure(e.to_string());
+    Ok(if lattice.name == "z4" {
+        (LatticeVolume4::from_series(&series), 1.0, frames)
+    } else if a.resample {
+        let (vol, per_frame) = LatticeVolume4::resample(lattice, &series).map_err(err)?;
+        (vol, per_frame, frames)
+    } else {
+        (LatticeVolume4::subset(lattice, &series).map_err(err)?, 1.0, frames)
+    })
 }
 
 /// `out.png` -> `out-0003.png`.
@@ -80,15 +99,8 @@ pub(super) fn run(a: &RenderArgs, d: &Derivation) -> Result<(), Failure> {
             layout.name()
         )));
     }
-    if d.filter.lattice.name != "z4" {
-        return Err(Failure(format!(
-            "{} is on the {} lattice, but a time series is Cartesian (Z^4): resampling a series onto another 4D \
-             lattice is not offered yet; use z4_linear or z4_cubic",
-            d.filter.name, d.filter.lattice.name
-        )));
-    }
-    let series = load_series(&a.volume, a.raw.as_deref())?;
-    let last = (series.frames() - 1) as f32;
+    let (vol, per_frame, frames) = load_volume(a, &d.filter.lattice)?;
+    let last = (frames - 1) as f32;
     let times: Vec<f32> = match (a.time, a.frames) {
         (Some(_), Some(_)) => return Err(Failure("--time draws one frame and --frames an animation: give one".into())),
         (Some(t), None) if !(0.0..=last).contains(&t) => {
@@ -100,7 +112,6 @@ pub(super) fn run(a: &RenderArgs, d: &Derivation) -> Result<(), Failure> {
         (None, None) => vec![0.5 * last],
     };
     let gpu = Gpu::new(a.adapter.as_deref()).map_err(|e| Failure(e.to_string()))?;
-    let vol = LatticeVolume4::from_series(&series);
     let renderer = FourIsoRenderer::new(&gpu, d, &vol, layout).map_err(|e| Failure(e.to_string()))?;
     let o = FourIsoOptions {
         width: a.size,
@@ -111,7 +122,8 @@ pub(super) fn run(a: &RenderArgs, d: &Derivation) -> Result<(), Failure> {
     };
     let bar = boxforge_runtime::progress::bar(times.len() as u64, "frames");
     for (k, &t) in times.iter().enumerate() {
-        let rgba = renderer.render(t, &o).map_err(|e| Failure(e.to_string()))?;
+        // Frames of the series to lattice units of the time axis.
+        let rgba = renderer.render((t as f64 * per_frame) as f32, &o).map_err(|e| Failure(e.to_string()))?;
         let path = if times.len() == 1 { a.out.clone() } else { numbered(&a.out, k) };
         boxforge_runtime::render::iso::write_png(&path, a.size, a.size, &rgba)
             .map_err(|e| Failure(format!("cannot write {}: {e}", path.display())))?;
