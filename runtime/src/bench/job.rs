@@ -74,7 +74,7 @@ impl Job {
     }
 
     /// [`Job::new`] over 4D samples (one storage buffer; a source made by
-    /// [`program4`]).
+    /// `program4`).
     pub fn new4(
         gpu: &Gpu,
         source: &str,

@@ -83,7 +83,7 @@ pub struct Got4 {
     pub gradient: [f32; 4],
     /// `eval_hessian`'s gradient (`eval_grad`'s below degree 2).
     pub hessian_gradient: [f32; 4],
-    /// Column-major: hessian[col][row] (zero below degree 2).
+    /// Column-major: hessian\[col\]\[row\] (zero below degree 2).
     pub hessian: [[f32; 4]; 4],
 }
 

@@ -87,6 +87,19 @@ fn render_cli_draws_time_series() {
     ]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     assert!(dir.as_path().join("a-0000.png").exists() && dir.as_path().join("a-0001.png").exists());
+    // DVR with the default ramp and with a preset.
+    for tf in [None, Some("marschner-lobb")] {
+        let dvr = dir.as_path().join("v.png");
+        let mut args =
+            vec!["render", "--filter", "z4_linear", "--volume", "ml-drift:16,4", "--mode", "dvr", "--time", "0.5"];
+        if let Some(tf) = tf {
+            args.extend_from_slice(&["--tf", tf]);
+        }
+        args.extend_from_slice(&["--size", "16", "--out", dvr.to_str().unwrap()]);
+        let out = run(&args);
+        assert!(out.status.success() && dvr.exists(), "{tf:?}: {}", String::from_utf8_lossy(&out.stderr));
+        std::fs::remove_file(&dvr).unwrap();
+    }
     // D4*: the signal sampled on the lattice at the matched count.
     let d4s = dir.as_path().join("d.png");
     let out = run(&[
@@ -108,7 +121,7 @@ fn render_cli_draws_time_series() {
     let bad = dir.as_path().join("bad.png");
     for args in [
         &["--filter", "z4_linear", "--volume", "ml-drift:16,4", "--time", "7"][..],
-        &["--filter", "z4_linear", "--volume", "ml-drift:16,4", "--mode", "dvr"],
+        &["--filter", "z4_linear", "--volume", "ml-drift:16,4", "--hit", "exact"],
         &["--filter", "d4star8", "--volume", "ml-drift:16,4", "--layout", "bricked"],
         &["--filter", "bcc7", "--volume", "ml:16", "--time", "1"],
         &["--filter", "z4_linear", "--volume", "ml-drift:16"],
@@ -123,4 +136,33 @@ fn render_cli_draws_time_series() {
         assert!(!bad.exists(), "{args:?} wrote a file");
     }
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The same for direct volume rendering: the DVR frame between frames
+/// equals the exact evaluator's (same steps, lookup and early stop) and is
+/// not the blend's.
+#[test]
+fn a_dvr_frame_between_frames_is_the_4d_spline_not_the_blend() {
+    use boxforge_runtime::render::dvr::transfer::TransferFunction;
+    use boxforge_runtime::render::four::{cpu_reference_dvr, rms_rgb};
+    let gpu = crate::common::gpu();
+    let d = Derivation::new(&boxforge::spec::catalog::get("z4_cubic").unwrap()).unwrap();
+    let series = VolumeSeries::marschner_lobb_drift([20, 20, 20, 6]).unwrap();
+    let vol = LatticeVolume4::from_series(&series);
+    let o = FourIsoOptions { width: 32, height: 32, step: 0.5, ..FourIsoOptions::default() };
+    let tf = TransferFunction::preset("marschner-lobb").table();
+    let t = 2.5;
+    let frame = FourIsoRenderer::new(gpu, &d, &vol, Layout::Embedded).unwrap().render_dvr(t, &o, &tf).unwrap();
+    let lit = frame.chunks(4).filter(|p| p[0] as u32 + p[1] as u32 + p[2] as u32 > 30).count();
+    assert!(lit > 100, "the volume shows ({lit} of 1024 pixels lit)");
+    let exact = cpu_reference_dvr(&d, &vol, t as f64, &o, &tf);
+    let rms = rms_rgb(&frame, &exact);
+    assert!(rms < 1.0 / 255.0, "against the exact frame: RMS {rms:.2e}");
+    let blend = series.blend(t as f64);
+    let data: Vec<f32> = (0..series.frames()).flat_map(|_| blend.data.iter().copied()).collect();
+    let blended = LatticeVolume4::new(vol.lattice.clone(), vol.dims, data).unwrap();
+    let bf = FourIsoRenderer::new(gpu, &d, &blended, Layout::Embedded).unwrap().render_dvr(t, &o, &tf).unwrap();
+    let rms_blend = rms_rgb(&frame, &bf);
+    assert!(rms_blend > 1.0 / 255.0, "the blend's frame differs: RMS {rms_blend:.2e}");
+    eprintln!("4D DVR at t = {t}: {lit} lit; vs exact RMS {rms:.2e}; vs the blend RMS {rms_blend:.2e}");
 }

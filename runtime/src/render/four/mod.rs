@@ -6,12 +6,16 @@
 //! [`cpu_reference`] runs the same march with the exact evaluator (f64),
 //! the check of every image.
 //!
-//! A first 4D renderer: iso only, orthographic, fixed steps, no empty-space
-//! skipping (the 3D ray caster's min/max blocks have no 4D counterpart yet).
+//! [`FourIsoRenderer::render_dvr`] draws emission-absorption volume
+//! renderings the same way ([`cpu_reference_dvr`] its reference).
+//!
+//! A first 4D renderer: orthographic, fixed steps, no empty-space skipping
+//! (the 3D ray caster's min/max blocks have no 4D counterpart yet).
 
 use crate::gpu::binding::storage_entry;
 use crate::gpu::Gpu;
 use crate::render::camera::{Camera, CameraUniform};
+use crate::render::dvr::transfer::Tf1d;
 use crate::render::RenderError;
 use crate::volume::{DeviceVolume4, LatticeVolume4};
 use boxforge::derive::Derivation;
@@ -47,6 +51,8 @@ struct FourParams {
     misc: [f32; 4],
     /// width, height, bisections, unused.
     size: [u32; 4],
+    /// DVR: the transfer function's first and last value, its entries, unused.
+    misc2: [f32; 4],
 }
 
 fn shader(name: &str) -> String {
@@ -57,9 +63,13 @@ struct FourParams {{
     box_lo: vec4<f32>, box_hi: vec4<f32>,
     misc: vec4<f32>,
     size: vec4<u32>,
+    misc2: vec4<f32>,
 }}
 @group(1) @binding(0) var<storage, read> four_p: FourParams;
 @group(1) @binding(1) var<storage, read_write> four_image: array<u32>;
+// DVR: the transfer function table, (r, g, b, extinction per cell) over
+// [misc2.x, misc2.y] in misc2.z entries.
+@group(1) @binding(2) var<storage, read> four_tf: array<vec4<f32>>;
 
 fn four_f(p: vec3<f32>) -> f32 {{
     return {name}_eval(vec4<f32>(p, four_p.misc.x)) - four_p.misc.y;
@@ -117,6 +127,51 @@ fn four_iso_main(@builtin(global_invocation_id) gid: vec3<u32>) {{
     }}
     four_image[gid.y * w + gid.x] = color;
 }}
+
+/// Emission-absorption along the ray at the midpoints of fixed steps, front
+/// to back, until the opacity passes 0.99.
+@compute @workgroup_size(8, 8)
+fn four_dvr_main(@builtin(global_invocation_id) gid: vec3<u32>) {{
+    let w = four_p.size.x;
+    let h = four_p.size.y;
+    if (gid.x >= w || gid.y >= h) {{
+        return;
+    }}
+    let ndc = vec2<f32>((f32(gid.x) + 0.5) / f32(w) * 2.0 - 1.0, 1.0 - (f32(gid.y) + 0.5) / f32(h) * 2.0);
+    let o = four_p.eye.xyz + four_p.right.xyz * ndc.x + four_p.up.xyz * ndc.y;
+    let dir = four_p.forward.xyz;
+    let inv = 1.0 / dir;
+    let ta = (four_p.box_lo.xyz - o) * inv;
+    let tb = (four_p.box_hi.xyz - o) * inv;
+    let tmin = max(max(min(ta.x, tb.x), min(ta.y, tb.y)), min(ta.z, tb.z));
+    let tmax = min(min(max(ta.x, tb.x), max(ta.y, tb.y)), max(ta.z, tb.z));
+    let step = four_p.misc.z;
+    let a = max(tmin, 0.0);
+    var rgb = vec3<f32>(0.0);
+    var alpha = 0.0;
+    if (tmax > a) {{
+        let n = u32(ceil((tmax - a) / step));
+        let entries = four_p.misc2.z;
+        for (var i = 0u; i < n; i++) {{
+            let s = a + (f32(i) + 0.5) * step;
+            if (s > tmax) {{
+                break;
+            }}
+            let v = {name}_eval(vec4<f32>(o + dir * s, four_p.misc.x));
+            let u = clamp((v - four_p.misc2.x) * ((entries - 1.0) / (four_p.misc2.y - four_p.misc2.x)), 0.0, entries - 1.0);
+            let k = min(u32(floor(u)), u32(entries) - 2u);
+            let e = mix(four_tf[k], four_tf[k + 1u], u - f32(k));
+            let a_s = 1.0 - exp(-e.w * step);
+            rgb += (1.0 - alpha) * a_s * e.xyz;
+            alpha += (1.0 - alpha) * a_s;
+            if (alpha > 0.99) {{
+                break;
+            }}
+        }}
+    }}
+    let c = vec3<u32>(round(clamp(rgb, vec3<f32>(0.0), vec3<f32>(1.0)) * 255.0));
+    four_image[gid.y * w + gid.x] = 0xff000000u | (c.z << 16u) | (c.y << 8u) | c.x;
+}}
 "
     )
 }
@@ -134,6 +189,7 @@ pub fn valid_box(d: &Derivation, vol: &LatticeVolume4) -> ([f32; 3], [f32; 3]) {
 pub struct FourIsoRenderer<'a> {
     gpu: &'a Gpu,
     pipeline: wgpu::ComputePipeline,
+    dvr_pipeline: wgpu::ComputePipeline,
     bgl1: wgpu::BindGroupLayout,
     bg0: wgpu::BindGroup,
     lo: [f32; 3],
@@ -161,9 +217,10 @@ impl<'a> FourIsoRenderer<'a> {
         });
         let bgl1 = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("4d iso"),
-            entries: &[storage_entry(0, true), storage_entry(1, false)],
+            entries: &[storage_entry(0, true), storage_entry(1, false), storage_entry(2, true)],
         });
         let pipeline = gpu.pipeline("four_iso_main", &sm, &[&bgl0, &bgl1], "four_iso_main")?;
+        let dvr_pipeline = gpu.pipeline("four_dvr_main", &sm, &[&bgl0, &bgl1], "four_dvr_main")?;
         let bg0 = gpu.checked("bind the 4D samples", || {
             dev.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("4d samples"),
@@ -172,12 +229,22 @@ impl<'a> FourIsoRenderer<'a> {
             })
         })?;
         let (lo, hi) = valid_box(d, vol);
-        Ok(FourIsoRenderer { gpu, pipeline, bgl1, bg0, lo, hi })
+        Ok(FourIsoRenderer { gpu, pipeline, dvr_pipeline, bgl1, bg0, lo, hi })
     }
 
     /// The frame at time `t` (lattice units of the time axis: frame k at
     /// t = k), RGBA8, row-major from the top.
     pub fn render(&self, t: f32, o: &FourIsoOptions) -> Result<Vec<u8>, RenderError> {
+        self.frame(t, o, None)
+    }
+
+    /// The direct volume rendering at time `t` through `tf` (emission and
+    /// absorption at the midpoints of `o.step`; `o.iso` unused), RGBA8.
+    pub fn render_dvr(&self, t: f32, o: &FourIsoOptions, tf: &Tf1d) -> Result<Vec<u8>, RenderError> {
+        self.frame(t, o, Some(tf))
+    }
+
+    fn frame(&self, t: f32, o: &FourIsoOptions, tf: Option<&Tf1d>) -> Result<Vec<u8>, RenderError> {
         if o.width == 0 || o.height == 0 {
             return Err(RenderError::EmptyTarget);
         }
@@ -186,7 +253,10 @@ impl<'a> FourIsoRenderer<'a> {
             camera: CameraUniform::orbit(&o.camera, self.lo, self.hi, o.width, o.height),
             misc: [t, o.iso, o.step, 0.0],
             size: [o.width, o.height, BISECTIONS, 0],
+            misc2: tf.map_or([0.0, 1.0, 2.0, 0.0], |tf| [tf.lo, tf.hi, tf.entries.len() as f32, 0.0]),
         };
+        let table: Vec<[f32; 4]> = tf.map_or(vec![[0.0; 4]; 2], |tf| tf.entries.clone());
+        let tbuf = gpu.storage_buffer("4d transfer function", bytemuck::cast_slice(&table), false);
         let pbuf = gpu.storage_buffer("4d iso params", bytemuck::bytes_of(&params), false);
         let n = o.width as usize * o.height as usize;
         let img = gpu.storage_buffer("4d iso image", &vec![0u8; n * 4], true);
@@ -197,10 +267,12 @@ impl<'a> FourIsoRenderer<'a> {
                 entries: &[
                     wgpu::BindGroupEntry { binding: 0, resource: pbuf.as_entire_binding() },
                     wgpu::BindGroupEntry { binding: 1, resource: img.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 2, resource: tbuf.as_entire_binding() },
                 ],
             })
         })?;
-        gpu.dispatch("4d iso", &self.pipeline, &[&self.bg0, &bg1], (o.width.div_ceil(8), o.height.div_ceil(8), 1))?;
+        let pipeline = if tf.is_some() { &self.dvr_pipeline } else { &self.pipeline };
+        gpu.dispatch("4d frame", pipeline, &[&self.bg0, &bg1], (o.width.div_ceil(8), o.height.div_ceil(8), 1))?;
         Ok(gpu.read_buffer(&img)?)
     }
 }
@@ -278,6 +350,80 @@ pub fn cpu_reference(d: &Derivation, vol: &LatticeVolume4, t: f64, o: &FourIsoOp
         }
     });
     out
+}
+
+/// [`FourIsoRenderer::render_dvr`]'s frame from the exact evaluator (f64),
+/// the same steps, lookup and early stop: the reference of every DVR frame.
+pub fn cpu_reference_dvr(d: &Derivation, vol: &LatticeVolume4, t: f64, o: &FourIsoOptions, tf: &Tf1d) -> Vec<u8> {
+    let (lo, hi) = valid_box(d, vol);
+    let cam = CameraUniform::orbit(&o.camera, lo, hi, o.width, o.height);
+    let v3 = |a: [f32; 4]| [a[0] as f64, a[1] as f64, a[2] as f64];
+    let (eye, fwd, right, up) = (v3(cam.eye), v3(cam.forward), v3(cam.right), v3(cam.up));
+    let (blo, bhi) = (lo.map(f64::from), hi.map(f64::from));
+    let data = |j: &[i64]| vol.get(j) as f64;
+    let _ = d.f64_tables();
+    let (w, h) = (o.width as usize, o.height as usize);
+    let step = o.step as f64;
+    let pixel = |i: usize| -> [u8; 4] {
+        let (px, py) = (i % w, i / w);
+        let ndc = [(px as f64 + 0.5) / w as f64 * 2.0 - 1.0, 1.0 - (py as f64 + 0.5) / h as f64 * 2.0];
+        let org: [f64; 3] = std::array::from_fn(|a| eye[a] + right[a] * ndc[0] + up[a] * ndc[1]);
+        let (mut tmin, mut tmax) = (f64::NEG_INFINITY, f64::INFINITY);
+        for a in 0..3 {
+            let (ta, tb) = ((blo[a] - org[a]) / fwd[a], (bhi[a] - org[a]) / fwd[a]);
+            tmin = tmin.max(ta.min(tb));
+            tmax = tmax.min(ta.max(tb));
+        }
+        let a = tmin.max(0.0);
+        let (mut rgb, mut alpha) = ([0.0f64; 3], 0.0f64);
+        if tmax > a {
+            let n = ((tmax - a) / step).ceil() as usize;
+            for i in 0..n {
+                let s = a + (i as f64 + 0.5) * step;
+                if s > tmax {
+                    break;
+                }
+                let p = [org[0] + fwd[0] * s, org[1] + fwd[1] * s, org[2] + fwd[2] * s, t];
+                let e = tf.at(d.eval_f64(&p, &data).0);
+                let a_s = 1.0 - (-e[3] * step).exp();
+                for c in 0..3 {
+                    rgb[c] += (1.0 - alpha) * a_s * e[c];
+                }
+                alpha += (1.0 - alpha) * a_s;
+                if alpha > 0.99 {
+                    break;
+                }
+            }
+        }
+        let c = rgb.map(|x| (x.clamp(0.0, 1.0) * 255.0).round() as u8);
+        [c[0], c[1], c[2], 255]
+    };
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let per = (w * h).div_ceil(threads).max(1);
+    let mut out = vec![0u8; w * h * 4];
+    std::thread::scope(|s| {
+        for (c, chunk) in out.chunks_mut(per * 4).enumerate() {
+            let pixel = &pixel;
+            s.spawn(move || {
+                for (k, px) in chunk.chunks_mut(4).enumerate() {
+                    px.copy_from_slice(&pixel(c * per + k));
+                }
+            });
+        }
+    });
+    out
+}
+
+/// The RMS over every pixel and channel (r, g, b in [0, 1]) of two RGBA8 frames.
+pub fn rms_rgb(a: &[u8], b: &[u8]) -> f64 {
+    let (mut sum, mut n) = (0.0, 0usize);
+    for (p, q) in a.chunks(4).zip(b.chunks(4)) {
+        for c in 0..3 {
+            sum += ((p[c] as f64 - q[c] as f64) / 255.0).powi(2);
+            n += 1;
+        }
+    }
+    (sum / n.max(1) as f64).sqrt()
 }
 
 /// How two frames differ: the RMS of the grey levels (in [0, 1]) over the

@@ -10,6 +10,7 @@ use boxforge::derive::Derivation;
 use boxforge::emit::Layout;
 use boxforge::spec::lattice::Lattice;
 use boxforge_runtime::gpu::Gpu;
+use boxforge_runtime::render::dvr::transfer::TransferFunction;
 use boxforge_runtime::render::four::{FourIsoOptions, FourIsoRenderer};
 use boxforge_runtime::render::Camera;
 use boxforge_runtime::volume::{parse_raw_spec, LatticeVolume4, VolumeSeries};
@@ -74,8 +75,10 @@ pub(super) fn run(a: &RenderArgs, d: &Derivation) -> Result<(), Failure> {
             "{flag} is not offered for 4D filters yet (they render isosurfaces, fixed steps): drop it"
         )))
     };
-    if a.mode != super::ModeArg::Iso {
-        return refuse("--mode dvr");
+    request::check_render_mode(a.mode.name(), a.tf.as_deref(), a.no_preintegration)?;
+    let dvr = a.mode == super::ModeArg::Dvr;
+    if dvr && (a.no_preintegration || a.tf_curvature) {
+        return refuse("--no-preintegration/--tf-curvature");
     }
     if a.gpu_budget.is_some() {
         return refuse("--gpu-budget");
@@ -120,10 +123,29 @@ pub(super) fn run(a: &RenderArgs, d: &Derivation) -> Result<(), Failure> {
         step: a.step,
         camera: Camera { azimuth: az, elevation: el, perspective: false },
     };
+    // DVR: --tf, or a ramp over the samples' range.
+    let tf = if dvr {
+        let f = match &a.tf {
+            Some(name) => TransferFunction::load(name).map_err(|e| Failure(format!("--tf {e}")))?,
+            None => {
+                let (lo, hi) =
+                    vol.data.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(l, h), &v| (l.min(v), h.max(v)));
+                TransferFunction::ramp(lo as f64, (hi as f64).max(lo as f64 + 1e-6))
+            }
+        };
+        Some(f.table())
+    } else {
+        None
+    };
     let bar = boxforge_runtime::progress::bar(times.len() as u64, "frames");
     for (k, &t) in times.iter().enumerate() {
         // Frames of the series to lattice units of the time axis.
-        let rgba = renderer.render((t as f64 * per_frame) as f32, &o).map_err(|e| Failure(e.to_string()))?;
+        let w = (t as f64 * per_frame) as f32;
+        let rgba = match &tf {
+            Some(tf) => renderer.render_dvr(w, &o, tf),
+            None => renderer.render(w, &o),
+        }
+        .map_err(|e| Failure(e.to_string()))?;
         let path = if times.len() == 1 { a.out.clone() } else { numbered(&a.out, k) };
         boxforge_runtime::render::iso::write_png(&path, a.size, a.size, &rgba)
             .map_err(|e| Failure(format!("cannot write {}: {e}", path.display())))?;
