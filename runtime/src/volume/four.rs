@@ -227,6 +227,24 @@ impl LatticeVolume4 {
     }
 }
 
+/// Refuses `bytes` of 4D samples over the storage binding `limit`, naming
+/// both sizes and what to do.
+pub fn check_fits(bytes: usize, limit: usize, layout: Layout) -> Result<(), VolumeError> {
+    if bytes <= limit {
+        return Ok(());
+    }
+    Err(VolumeError::FourD {
+        message: format!(
+            "the 4D samples need {} MiB in the {} layout, over this adapter's storage binding limit of {} MiB: \
+             use fewer frames or a smaller volume{}",
+            bytes.div_ceil(1 << 20),
+            layout.name(),
+            limit >> 20,
+            if layout == Layout::Embedded { ", or the packed layout (one word per sample)" } else { "" }
+        ),
+    })
+}
+
 /// A 4D volume on the device: the one storage buffer of `<f>_samples`.
 pub struct DeviceVolume4 {
     pub layout: Layout,
@@ -257,19 +275,7 @@ impl DeviceVolume4 {
             }
         };
         let bytes = 4 * words.len();
-        let limit = gpu.device.limits().max_storage_buffer_binding_size as usize;
-        if bytes > limit {
-            return Err(VolumeError::FourD {
-                message: format!(
-                    "the 4D samples need {} MiB in the {} layout, over this adapter's storage binding limit of {} MiB: \
-                     use fewer frames or a smaller volume{}",
-                    bytes >> 20,
-                    layout.name(),
-                    limit >> 20,
-                    if layout == Layout::Embedded { ", or the packed layout (one word per sample)" } else { "" }
-                ),
-            });
-        }
+        check_fits(bytes, gpu.device.limits().max_storage_buffer_binding_size as usize, layout)?;
         let buffer = gpu.storage_buffer("4d samples", bytemuck::cast_slice(&words), false);
         Ok(DeviceVolume4 { layout, buffer, bytes })
     }
@@ -382,6 +388,18 @@ mod tests {
         let s = LatticeVolume4::subset(&d4s, &series).unwrap();
         assert_eq!(s.get(&[1, 1, 1, 1]), series.data[1 + 6 * (1 + 5 * (1 + 4))]);
         assert_eq!(s.get(&[1, 0, 0, 0]), 0.0);
+    }
+
+    #[test]
+    fn a_volume_past_the_binding_limit_is_refused_with_the_estimate() {
+        assert!(check_fits(128 << 20, 128 << 20, Layout::Packed).is_ok());
+        let e = check_fits((128 << 20) + 1, 128 << 20, Layout::Embedded).unwrap_err().to_string();
+        assert!(
+            e.contains("129 MiB") && e.contains("128 MiB") && e.contains("packed layout") && !e.contains('\n'),
+            "{e}"
+        );
+        let e = check_fits(300 << 20, 128 << 20, Layout::Packed).unwrap_err().to_string();
+        assert!(e.contains("300 MiB") && !e.contains("or the packed layout"), "{e}");
     }
 
     #[test]
