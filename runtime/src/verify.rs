@@ -303,23 +303,28 @@ pub fn random_points(d: &Derivation, vol: &LatticeVolume, count: usize, seed: u6
         .collect()
 }
 
-/// Exact (f64) evaluation at the points, on all cores.
-pub fn cpu_eval(d: &Derivation, vol: &LatticeVolume, points: &[[f32; 4]]) -> Vec<(f64, Vec<f64>)> {
+/// `f` of every item, in order, on every core (the exact evaluator is the
+/// slow side of every device check).
+pub fn par_map<T: Sync, R: Send>(items: &[T], f: impl Fn(&T) -> R + Sync) -> Vec<R> {
     let threads = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
-    let chunk = points.len().div_ceil(threads).max(1);
-    let data = |j: &[i64]| vol.get(j) as f64;
-    let _ = d.f64_tables();
+    let chunk = items.len().div_ceil(threads).max(1);
     std::thread::scope(|s| {
-        let handles: Vec<_> = points
+        let handles: Vec<_> = items
             .chunks(chunk)
             .map(|c| {
-                s.spawn(move || {
-                    c.iter().map(|p| d.eval_f64(&[p[0] as f64, p[1] as f64, p[2] as f64], &data)).collect::<Vec<_>>()
-                })
+                let f = &f;
+                s.spawn(move || c.iter().map(f).collect::<Vec<R>>())
             })
             .collect();
-        handles.into_iter().flat_map(|h| h.join().expect("cpu eval")).collect()
+        handles.into_iter().flat_map(|h| h.join().expect("a worker of par_map panicked")).collect()
     })
+}
+
+/// Exact (f64) evaluation at the points, on all cores.
+pub fn cpu_eval(d: &Derivation, vol: &LatticeVolume, points: &[[f32; 4]]) -> Vec<(f64, Vec<f64>)> {
+    let data = |j: &[i64]| vol.get(j) as f64;
+    let _ = d.f64_tables();
+    par_map(points, |p| d.eval_f64(&[p[0] as f64, p[1] as f64, p[2] as f64], &data))
 }
 
 pub fn verify(

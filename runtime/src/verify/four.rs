@@ -217,18 +217,7 @@ impl Tally4 {
     pub fn check(d: &Derivation, vol: &LatticeVolume4, pts: &[[f32; 4]], got: &[Got4], with_hessian: bool) -> Tally4 {
         let data = |j: &[i64]| vol.get(j) as f64;
         let _ = d.f64_tables();
-        let threads = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
-        let chunk = pts.len().div_ceil(threads).max(1);
-        let exact: Vec<SecondOrder> = std::thread::scope(|s| {
-            let handles: Vec<_> = pts
-                .chunks(chunk)
-                .map(|c| {
-                    let data = &data;
-                    s.spawn(move || c.iter().map(|p| d.eval_f64_hessian(&p.map(f64::from), data)).collect::<Vec<_>>())
-                })
-                .collect();
-            handles.into_iter().flat_map(|h| h.join().expect("cpu eval")).collect()
-        });
+        let exact: Vec<SecondOrder> = super::par_map(pts, |p| d.eval_f64_hessian(&p.map(f64::from), &data));
         let (lo, hi) = vol.data.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
         let range = (hi - lo).max(f32::MIN_POSITIVE) as f64;
         let mut t = Tally4 { data_range: range, ..Tally4::default() };

@@ -116,23 +116,9 @@ impl<'a> HessianEvaluator<'a> {
 
 /// Exact (f64) value, gradient and Hessian at the points, on all cores.
 pub fn cpu_eval_hessian(d: &Derivation, vol: &LatticeVolume, points: &[[f32; 4]]) -> Vec<SecondOrder> {
-    let threads = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
-    let chunk = points.len().div_ceil(threads).max(1);
     let data = |j: &[i64]| vol.get(j) as f64;
     let _ = d.f64_tables();
-    std::thread::scope(|s| {
-        let handles: Vec<_> = points
-            .chunks(chunk)
-            .map(|c| {
-                s.spawn(move || {
-                    c.iter()
-                        .map(|p| d.eval_f64_hessian(&[p[0] as f64, p[1] as f64, p[2] as f64], &data))
-                        .collect::<Vec<_>>()
-                })
-            })
-            .collect();
-        handles.into_iter().flat_map(|h| h.join().expect("cpu eval")).collect()
-    })
+    super::par_map(points, |p| d.eval_f64_hessian(&[p[0] as f64, p[1] as f64, p[2] as f64], &data))
 }
 
 /// The running comparison of device Hessians against the exact evaluator.

@@ -10,6 +10,15 @@ use boxforge::emit::Layout;
 use boxforge_runtime::render::four::{compare, cpu_reference, FourIsoOptions, FourIsoRenderer};
 use boxforge_runtime::volume::{LatticeVolume4, VolumeSeries};
 
+/// The linear blend of the frames around `t`, as every frame of a series
+/// on Z^4: through a tensor-product spline, the 3D spline of the blend.
+fn blend_in_every_frame(series: &VolumeSeries, t: f64) -> LatticeVolume4 {
+    let blend = series.blend(t);
+    let data: Vec<f32> = (0..series.frames()).flat_map(|_| blend.data.iter().copied()).collect();
+    let vol = LatticeVolume4::from_series(series);
+    LatticeVolume4::new(vol.lattice, vol.dims, data).unwrap()
+}
+
 #[test]
 fn an_isosurface_between_frames_is_the_4d_spline_not_the_blend() {
     let gpu = crate::common::gpu();
@@ -34,10 +43,7 @@ fn an_isosurface_between_frames_is_the_4d_spline_not_the_blend() {
     assert!(rms_p < 1.0 / 255.0 && one_p <= 4, "packed: {rms_p:.2e}, {one_p}");
     // The blend of frames 2 and 3, constant in time, through the same spline:
     // the tricubic frame of the blended volume.
-    let blend = series.blend(t as f64);
-    let frames = series.frames();
-    let data: Vec<f32> = (0..frames).flat_map(|_| blend.data.iter().copied()).collect();
-    let blended = LatticeVolume4::new(vol.lattice.clone(), vol.dims, data).unwrap();
+    let blended = blend_in_every_frame(&series, t as f64);
     let blend_frame = FourIsoRenderer::new(gpu, &d, &blended, Layout::Embedded).unwrap().render(t, &o).unwrap();
     let (_, _, rms_blend) = compare(&embedded, &blend_frame);
     assert!(rms_blend > 1.0 / 255.0, "the blend's frame differs: RMS {rms_blend:.2e}");
@@ -158,9 +164,7 @@ fn a_dvr_frame_between_frames_is_the_4d_spline_not_the_blend() {
     let exact = cpu_reference_dvr(&d, &vol, t as f64, &o, &tf);
     let rms = rms_rgb(&frame, &exact);
     assert!(rms < 1.0 / 255.0, "against the exact frame: RMS {rms:.2e}");
-    let blend = series.blend(t as f64);
-    let data: Vec<f32> = (0..series.frames()).flat_map(|_| blend.data.iter().copied()).collect();
-    let blended = LatticeVolume4::new(vol.lattice.clone(), vol.dims, data).unwrap();
+    let blended = blend_in_every_frame(&series, t as f64);
     let bf = FourIsoRenderer::new(gpu, &d, &blended, Layout::Embedded).unwrap().render_dvr(t, &o, &tf).unwrap();
     let rms_blend = rms_rgb(&frame, &bf);
     assert!(rms_blend > 1.0 / 255.0, "the blend's frame differs: RMS {rms_blend:.2e}");

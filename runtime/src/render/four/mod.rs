@@ -71,18 +71,17 @@ struct FourParams {{
 // [misc2.x, misc2.y] in misc2.z entries.
 @group(1) @binding(2) var<storage, read> four_tf: array<vec4<f32>>;
 
-fn four_f(p: vec3<f32>) -> f32 {{
-    return {name}_eval(vec4<f32>(p, four_p.misc.x)) - four_p.misc.y;
+/// The ray of pixel `px` (orthographic) and where it crosses the valid box.
+struct FourRay {{
+    origin: vec3<f32>,
+    dir: vec3<f32>,
+    tmin: f32,
+    tmax: f32,
 }}
 
-@compute @workgroup_size(8, 8)
-fn four_iso_main(@builtin(global_invocation_id) gid: vec3<u32>) {{
-    let w = four_p.size.x;
-    let h = four_p.size.y;
-    if (gid.x >= w || gid.y >= h) {{
-        return;
-    }}
-    let ndc = vec2<f32>((f32(gid.x) + 0.5) / f32(w) * 2.0 - 1.0, 1.0 - (f32(gid.y) + 0.5) / f32(h) * 2.0);
+fn four_ray(px: vec2<u32>) -> FourRay {{
+    let size = vec2<f32>(four_p.size.xy);
+    let ndc = vec2<f32>((f32(px.x) + 0.5) / size.x * 2.0 - 1.0, 1.0 - (f32(px.y) + 0.5) / size.y * 2.0);
     let o = four_p.eye.xyz + four_p.right.xyz * ndc.x + four_p.up.xyz * ndc.y;
     let dir = four_p.forward.xyz;
     let inv = 1.0 / dir;
@@ -90,6 +89,24 @@ fn four_iso_main(@builtin(global_invocation_id) gid: vec3<u32>) {{
     let tb = (four_p.box_hi.xyz - o) * inv;
     let tmin = max(max(min(ta.x, tb.x), min(ta.y, tb.y)), min(ta.z, tb.z));
     let tmax = min(min(max(ta.x, tb.x), max(ta.y, tb.y)), max(ta.z, tb.z));
+    return FourRay(o, dir, tmin, tmax);
+}}
+
+fn four_f(p: vec3<f32>) -> f32 {{
+    return {name}_eval(vec4<f32>(p, four_p.misc.x)) - four_p.misc.y;
+}}
+
+@compute @workgroup_size(8, 8)
+fn four_iso_main(@builtin(global_invocation_id) gid: vec3<u32>) {{
+    let w = four_p.size.x;
+    if (gid.x >= w || gid.y >= four_p.size.y) {{
+        return;
+    }}
+    let r = four_ray(gid.xy);
+    let o = r.origin;
+    let dir = r.dir;
+    let tmin = r.tmin;
+    let tmax = r.tmax;
     var color = 0xff000000u;
     let step = four_p.misc.z;
     var a = max(tmin, 0.0);
@@ -133,18 +150,14 @@ fn four_iso_main(@builtin(global_invocation_id) gid: vec3<u32>) {{
 @compute @workgroup_size(8, 8)
 fn four_dvr_main(@builtin(global_invocation_id) gid: vec3<u32>) {{
     let w = four_p.size.x;
-    let h = four_p.size.y;
-    if (gid.x >= w || gid.y >= h) {{
+    if (gid.x >= w || gid.y >= four_p.size.y) {{
         return;
     }}
-    let ndc = vec2<f32>((f32(gid.x) + 0.5) / f32(w) * 2.0 - 1.0, 1.0 - (f32(gid.y) + 0.5) / f32(h) * 2.0);
-    let o = four_p.eye.xyz + four_p.right.xyz * ndc.x + four_p.up.xyz * ndc.y;
-    let dir = four_p.forward.xyz;
-    let inv = 1.0 / dir;
-    let ta = (four_p.box_lo.xyz - o) * inv;
-    let tb = (four_p.box_hi.xyz - o) * inv;
-    let tmin = max(max(min(ta.x, tb.x), min(ta.y, tb.y)), min(ta.z, tb.z));
-    let tmax = min(min(max(ta.x, tb.x), max(ta.y, tb.y)), max(ta.z, tb.z));
+    let r = four_ray(gid.xy);
+    let o = r.origin;
+    let dir = r.dir;
+    let tmin = r.tmin;
+    let tmax = r.tmax;
     let step = four_p.misc.z;
     let a = max(tmin, 0.0);
     var rgb = vec3<f32>(0.0);
@@ -277,32 +290,47 @@ impl<'a> FourIsoRenderer<'a> {
     }
 }
 
-/// The same frame from the exact evaluator (f64), on all cores: the
-/// reference every device frame is held to.
-pub fn cpu_reference(d: &Derivation, vol: &LatticeVolume4, t: f64, o: &FourIsoOptions) -> Vec<u8> {
+/// A frame drawn on the CPU, every pixel on every core: `shade` gets the
+/// pixel's ray (origin, unit direction) and where it crosses the valid box
+/// ([tmin, tmax], tmin clamped to 0), as the device's `four_ray` computes them.
+fn cpu_frame(
+    d: &Derivation,
+    vol: &LatticeVolume4,
+    o: &FourIsoOptions,
+    shade: impl Fn([f64; 3], [f64; 3], f64, f64) -> [u8; 4] + Sync,
+) -> Vec<u8> {
     let (lo, hi) = valid_box(d, vol);
     let cam = CameraUniform::orbit(&o.camera, lo, hi, o.width, o.height);
     let v3 = |a: [f32; 4]| [a[0] as f64, a[1] as f64, a[2] as f64];
     let (eye, fwd, right, up) = (v3(cam.eye), v3(cam.forward), v3(cam.right), v3(cam.up));
     let (blo, bhi) = (lo.map(f64::from), hi.map(f64::from));
-    let data = |j: &[i64]| vol.get(j) as f64;
-    let _ = d.f64_tables();
     let (w, h) = (o.width as usize, o.height as usize);
-    let iso = o.iso as f64;
-    let step = o.step as f64;
-    let pixel = |i: usize| -> [u8; 4] {
+    let pixels: Vec<usize> = (0..w * h).collect();
+    let rgba = crate::verify::par_map(&pixels, |&i| {
         let (px, py) = (i % w, i / w);
         let ndc = [(px as f64 + 0.5) / w as f64 * 2.0 - 1.0, 1.0 - (py as f64 + 0.5) / h as f64 * 2.0];
         let org: [f64; 3] = std::array::from_fn(|a| eye[a] + right[a] * ndc[0] + up[a] * ndc[1]);
-        let at = |s: f64| -> [f64; 4] { [org[0] + fwd[0] * s, org[1] + fwd[1] * s, org[2] + fwd[2] * s, t] };
-        let f = |s: f64| d.eval_f64(&at(s), &data).0 - iso;
         let (mut tmin, mut tmax) = (f64::NEG_INFINITY, f64::INFINITY);
         for a in 0..3 {
             let (ta, tb) = ((blo[a] - org[a]) / fwd[a], (bhi[a] - org[a]) / fwd[a]);
             tmin = tmin.max(ta.min(tb));
             tmax = tmax.min(ta.max(tb));
         }
-        let mut a = tmin.max(0.0);
+        shade(org, fwd, tmin.max(0.0), tmax)
+    });
+    rgba.concat()
+}
+
+/// The same frame from the exact evaluator (f64), on all cores: the
+/// reference every device frame is held to.
+pub fn cpu_reference(d: &Derivation, vol: &LatticeVolume4, t: f64, o: &FourIsoOptions) -> Vec<u8> {
+    let data = |j: &[i64]| vol.get(j) as f64;
+    let _ = d.f64_tables();
+    let (iso, step) = (o.iso as f64, o.step as f64);
+    cpu_frame(d, vol, o, |org, fwd, start, tmax| {
+        let at = |s: f64| -> [f64; 4] { [org[0] + fwd[0] * s, org[1] + fwd[1] * s, org[2] + fwd[2] * s, t] };
+        let f = |s: f64| d.eval_f64(&at(s), &data).0 - iso;
+        let mut a = start;
         if tmax <= a {
             return [0, 0, 0, 255];
         }
@@ -335,46 +363,16 @@ pub fn cpu_reference(d: &Derivation, vol: &LatticeVolume4, t: f64, o: &FourIsoOp
             (a, fa) = (b, fb);
         }
         [0, 0, 0, 255]
-    };
-    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let per = (w * h).div_ceil(threads).max(1);
-    let mut out = vec![0u8; w * h * 4];
-    std::thread::scope(|s| {
-        for (c, chunk) in out.chunks_mut(per * 4).enumerate() {
-            let pixel = &pixel;
-            s.spawn(move || {
-                for (k, px) in chunk.chunks_mut(4).enumerate() {
-                    px.copy_from_slice(&pixel(c * per + k));
-                }
-            });
-        }
-    });
-    out
+    })
 }
 
 /// [`FourIsoRenderer::render_dvr`]'s frame from the exact evaluator (f64),
 /// the same steps, lookup and early stop: the reference of every DVR frame.
 pub fn cpu_reference_dvr(d: &Derivation, vol: &LatticeVolume4, t: f64, o: &FourIsoOptions, tf: &Tf1d) -> Vec<u8> {
-    let (lo, hi) = valid_box(d, vol);
-    let cam = CameraUniform::orbit(&o.camera, lo, hi, o.width, o.height);
-    let v3 = |a: [f32; 4]| [a[0] as f64, a[1] as f64, a[2] as f64];
-    let (eye, fwd, right, up) = (v3(cam.eye), v3(cam.forward), v3(cam.right), v3(cam.up));
-    let (blo, bhi) = (lo.map(f64::from), hi.map(f64::from));
     let data = |j: &[i64]| vol.get(j) as f64;
     let _ = d.f64_tables();
-    let (w, h) = (o.width as usize, o.height as usize);
     let step = o.step as f64;
-    let pixel = |i: usize| -> [u8; 4] {
-        let (px, py) = (i % w, i / w);
-        let ndc = [(px as f64 + 0.5) / w as f64 * 2.0 - 1.0, 1.0 - (py as f64 + 0.5) / h as f64 * 2.0];
-        let org: [f64; 3] = std::array::from_fn(|a| eye[a] + right[a] * ndc[0] + up[a] * ndc[1]);
-        let (mut tmin, mut tmax) = (f64::NEG_INFINITY, f64::INFINITY);
-        for a in 0..3 {
-            let (ta, tb) = ((blo[a] - org[a]) / fwd[a], (bhi[a] - org[a]) / fwd[a]);
-            tmin = tmin.max(ta.min(tb));
-            tmax = tmax.min(ta.max(tb));
-        }
-        let a = tmin.max(0.0);
+    cpu_frame(d, vol, o, |org, fwd, a, tmax| {
         let (mut rgb, mut alpha) = ([0.0f64; 3], 0.0f64);
         if tmax > a {
             let n = ((tmax - a) / step).ceil() as usize;
@@ -397,21 +395,7 @@ pub fn cpu_reference_dvr(d: &Derivation, vol: &LatticeVolume4, t: f64, o: &FourI
         }
         let c = rgb.map(|x| (x.clamp(0.0, 1.0) * 255.0).round() as u8);
         [c[0], c[1], c[2], 255]
-    };
-    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let per = (w * h).div_ceil(threads).max(1);
-    let mut out = vec![0u8; w * h * 4];
-    std::thread::scope(|s| {
-        for (c, chunk) in out.chunks_mut(per * 4).enumerate() {
-            let pixel = &pixel;
-            s.spawn(move || {
-                for (k, px) in chunk.chunks_mut(4).enumerate() {
-                    px.copy_from_slice(&pixel(c * per + k));
-                }
-            });
-        }
-    });
-    out
+    })
 }
 
 /// The RMS over every pixel and channel (r, g, b in [0, 1]) of two RGBA8 frames.
