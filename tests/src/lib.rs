@@ -113,3 +113,14 @@ pub fn prefiltered<'a>(d: &'a Derivation, p: &'a [(Vec<u32>, Q)]) -> impl Fn(&[i
             .sum()
     }
 }
+
+/// How many random points a catalog-wide exact check takes for `d`: `n`
+/// up to 3D, a tenth (at least 3) in 4D, where one exact evaluation reads up
+/// to 256 samples in rationals; the 4D filters get their full checks in d4.rs.
+pub fn points_for(d: &Derivation, n: usize) -> usize {
+    if d.facts.dim >= 4 {
+        (n / 10).max(3)
+    } else {
+        n
+    }
+}

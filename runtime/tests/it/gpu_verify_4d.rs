@@ -44,7 +44,7 @@ fn every_4d_catalog_filter_matches_the_exact_evaluator_on_the_device() {
 #[test]
 fn verification_in_4d_can_fail() {
     let gpu = crate::common::gpu();
-    let d = Derivation::new(&boxforge::spec::catalog::get("d4star8").unwrap()).unwrap();
+    let d = Derivation::new(&boxforge::spec::catalog::get("z4_cubic").unwrap()).unwrap();
     let vol = random_volume4(&d, 3);
     let pts = random_points4(&d, &vol, 300, 3);
     let off = LatticeVolume4::new(vol.lattice.clone(), vol.dims, vol.data.iter().map(|v| v * 1.01).collect()).unwrap();

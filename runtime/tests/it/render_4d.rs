@@ -25,11 +25,11 @@ fn an_isosurface_between_frames_is_the_4d_spline_not_the_blend() {
     let d = Derivation::new(&boxforge::spec::catalog::get("z4_cubic").unwrap()).unwrap();
     let series = VolumeSeries::marschner_lobb_drift([20, 20, 20, 6]).unwrap();
     let vol = LatticeVolume4::from_series(&series);
-    let o = FourIsoOptions { width: 40, height: 40, ..FourIsoOptions::default() };
+    let o = FourIsoOptions { width: 32, height: 32, ..FourIsoOptions::default() };
     let t = 2.5;
     let embedded = FourIsoRenderer::new(gpu, &d, &vol, Layout::Embedded).unwrap().render(t, &o).unwrap();
     let hits = embedded.chunks(4).filter(|p| p[0] > 0).count();
-    assert!(hits > 160, "the surface covers part of the frame ({hits} of 1600 pixels)");
+    assert!(hits > 100, "the surface covers part of the frame ({hits} of 1024 pixels)");
     // The exact 4D reference.
     let exact = cpu_reference(&d, &vol, t as f64, &o);
     let (rms, one_sided, _) = compare(&embedded, &exact);

@@ -14,7 +14,7 @@ fn evaluator_matches_de_boor_oracle_on_every_catalog_filter() {
         let mut oracle = Oracle::new(&d.filter);
         let mut rng = Rng(0xB0C5 ^ d.filter.name.len() as u64);
         let data = |j: &[i64]| Q::int(data_at(7, j));
-        for _ in 0..POINTS {
+        for _ in 0..boxforge_tests::points_for(&d, POINTS) {
             let x = random_interior_point(&d, &mut rng);
             let ours = d.eval_exact(&x, &data);
             let theirs = oracle.spline_value(&x, &data);
@@ -40,7 +40,7 @@ fn single_basis_function_matches_oracle_across_the_support() {
                 Q::zero()
             }
         };
-        for _ in 0..50 {
+        for _ in 0..boxforge_tests::points_for(&d, 50) {
             let x = random_interior_point(&d, &mut rng);
             assert_eq!(d.eval_exact(&x, &delta), oracle.phi(&x), "{} phi", d.filter.name);
             assert_eq!(d.pp.phi(&x), oracle.phi(&x), "{} PP-form phi", d.filter.name);

@@ -8,7 +8,7 @@ use boxforge_tests::{all_catalog, eval_poly, prefiltered, random_interior_point,
 fn partition_of_unity() {
     for d in all_catalog() {
         let mut rng = Rng(5);
-        for _ in 0..100 {
+        for _ in 0..boxforge_tests::points_for(&d, 100) {
             let x = random_interior_point(&d, &mut rng);
             assert_eq!(d.eval_exact(&x, &|_| Q::one()), Q::one(), "{}", d.filter.name);
             let (v, g) = d.eval_f64(&x.iter().map(|q| q.to_f64()).collect::<Vec<_>>(), &|_| 1.0);
@@ -24,7 +24,7 @@ fn prefiltered_polynomials_of_degree_below_rho_are_reproduced() {
         let mut rng = Rng(11);
         let p = random_poly(d.facts.dim, rho - 1, &mut rng);
         let data = prefiltered(&d, &p);
-        for _ in 0..40 {
+        for _ in 0..boxforge_tests::points_for(&d, 40) {
             let x = random_interior_point(&d, &mut rng);
             assert_eq!(d.eval_exact(&x, &data), eval_poly(&p, &x), "{} rho={rho}", d.filter.name);
         }
@@ -44,7 +44,7 @@ fn f64_evaluator_matches_exact_value_and_gradient() {
         let mut rng = Rng(21);
         let data_q = |j: &[i64]| Q::int(boxforge_tests::data_at(3, j));
         let data_f = |j: &[i64]| boxforge_tests::data_at(3, j) as f64;
-        for _ in 0..30 {
+        for _ in 0..boxforge_tests::points_for(&d, 30) {
             let x = random_interior_point(&d, &mut rng);
             let xf: Vec<f64> = x.iter().map(|q| q.to_f64()).collect();
             let exact = d.eval_exact(&x, &data_q).to_f64();

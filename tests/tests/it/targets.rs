@@ -27,10 +27,17 @@ fn catalog_modules() -> Vec<(String, String)> {
                 s.spawn(move || {
                     let d = Derivation::new(&catalog::get(name).unwrap()).unwrap();
                     d.derive_all_forms(&|_, _| {});
-                    let mut jobs: Vec<(Layout, FetchMode)> = boxforge::build::output::default_layouts(d.facts.dim)
-                        .into_iter()
-                        .map(|l| (l, FetchMode::Exact))
-                        .collect();
+                    // 4D: the packed layout of d4star8 and z4_linear (the layouts
+                    // differ only in `<f>_fetch`, which wgsl.rs checks in both;
+                    // every 4D module in every language would add about a
+                    // minute of glslang on 5000-line shaders to the suite).
+                    let layouts = match d.facts.dim {
+                        4 if ["d4star8", "z4_linear"].contains(name) => vec![Layout::Packed],
+                        4 => vec![],
+                        dim => boxforge::build::output::default_layouts(dim),
+                    };
+                    let mut jobs: Vec<(Layout, FetchMode)> =
+                        layouts.into_iter().map(|l| (l, FetchMode::Exact)).collect();
                     // 4D samples are a storage buffer: exact fetches only.
                     let textures = d.facts.dim <= 3;
                     if textures && d.factorisation().is_some_and(|f| f.supports_linear_fetch()) {
