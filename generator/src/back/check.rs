@@ -74,13 +74,14 @@ fn check_text(t: &Translated, u: &Unit, text: &str) -> Result<(), BackError> {
             // `#ifdef VULKAN` twin's (`layout(set = G, binding = N)`).
             TargetSlot::GlBinding { binding } => {
                 // A buffer block (4D samples: a header and an array) names
-                // its instance on the closing line: `} NAME;` after `layout(..) buffer X {`.
-                let block_headers: Vec<&str> = code
-                    .lines()
-                    .collect::<Vec<_>>()
-                    .windows(4)
-                    .filter(|w| w[3].starts_with('}') && ident_positions(w[3], &b.name_in_target).next().is_some())
-                    .filter_map(|w| w[..3].iter().rev().find(|l| l.starts_with("layout(")).copied())
+                // its instance on the closing line, `} NAME;`, and its
+                // binding on the nearest `layout(..) buffer X {` above it.
+                let all: Vec<&str> = code.lines().collect();
+                let block_headers: Vec<&str> = all
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, l)| l.starts_with('}') && ident_positions(l, &b.name_in_target).next().is_some())
+                    .filter_map(|(i, _)| all[..i].iter().rev().find(|l| l.starts_with("layout(")).copied())
                     .collect();
                 let decls: Vec<&&str> =
                     lines.iter().filter(|l| l.starts_with("layout(")).chain(block_headers.iter()).collect();

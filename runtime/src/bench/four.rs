@@ -81,59 +81,46 @@ pub fn best_layout(d: &Derivation) -> Layout {
 /// A sampled box of the signal for `d` at budget `n`, prefiltered or not;
 /// returns the volume, the lattice scale and the box's half-extent U (lattice
 /// point u is stored at u + U).
-fn sampled(d: &Derivation, n: usize, prefiltered: bool) -> (LatticeVolume4, f64, i64, usize) {
-    let det = d.filter.lattice.det().unsigned_abs() as f64;
-    let h = 2.0 / (n - 1) as f64;
-    // Matched count: 1 / (det s^4) = 1 / h^4 samples per unit volume.
-    let s = h / det.powf(0.25);
+fn sampled(d: &Derivation, n: usize, prefiltered: bool) -> (LatticeVolume4, f64, i64) {
+    let s = spacing(d, n);
     let reach = crate::verify::support_radius(d) as i64
         + d.prefilter.taps.iter().flat_map(|(k, _)| k.iter().map(|x| x.abs())).max().unwrap_or(0)
         + 2;
     let u = (1.0 / s).ceil() as i64 + reach;
     let side = (2 * u + 1) as usize;
     let taps: Vec<(Vec<i64>, f64)> = d.prefilter.taps.iter().map(|(k, w)| (k.clone(), w.to_f64())).collect();
-    let world = |j: &[i64]| -> [f64; 4] { std::array::from_fn(|a| j[a] as f64 * s) };
-    let mut data = vec![0f32; side.pow(4)];
-    // One w-slab per task, on every core.
-    let slab = side.pow(3);
-    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let per = data.len().div_ceil(threads).div_ceil(slab) * slab;
-    let inside: usize = std::thread::scope(|scope| {
-        let handles: Vec<_> = data
-            .chunks_mut(per.max(slab))
-            .enumerate()
-            .map(|(c, chunk)| {
-                let (taps, world) = (&taps, &world);
-                scope.spawn(move || {
-                    let mut inside = 0;
-                    for (o, v) in chunk.iter_mut().enumerate() {
-                        let i = c * per.max(slab) + o;
-                        let j: [i64; 4] = std::array::from_fn(|a| ((i / side.pow(a as u32)) % side) as i64 - u);
-                        if !d.filter.lattice.contains(&j) {
-                            continue;
-                        }
-                        if j.iter().all(|&x| (x as f64 * s).abs() <= 1.0) {
-                            inside += 1;
-                        }
-                        *v = if prefiltered {
-                            taps.iter()
-                                .map(|(k, w)| {
-                                    let jk: Vec<i64> = j.iter().zip(k).map(|(a, b)| a - b).collect();
-                                    w * signal(world(&jk))
-                                })
-                                .sum::<f64>() as f32
-                        } else {
-                            signal(world(&j)) as f32
-                        };
-                    }
-                    inside
-                })
-            })
-            .collect();
-        handles.into_iter().map(|h| h.join().expect("sampling")).sum()
-    });
-    let vol = LatticeVolume4::new(d.filter.lattice.clone(), [side; 4], data).expect("a 4D box of matching size");
-    (vol, 1.0 / s, u, inside)
+    // Lattice point j (centred) lies at world position s j.
+    let at = |j: &[i64]| signal(std::array::from_fn(|a| j[a] as f64 * s));
+    let vol = LatticeVolume4::from_fn(&d.filter.lattice, [side; 4], |i| {
+        let j: [i64; 4] = i.map(|x| x as i64 - u);
+        if prefiltered {
+            taps.iter().map(|(k, w)| w * at(&[j[0] - k[0], j[1] - k[1], j[2] - k[2], j[3] - k[3]])).sum::<f64>() as f32
+        } else {
+            at(&j) as f32
+        }
+    })
+    .expect("a 4D lattice and a box of matching size");
+    (vol, 1.0 / s, u)
+}
+
+/// The lattice spacing of `d` at budget `n`: as many samples per unit of
+/// space-time as Z^4 at spacing 2 / (n - 1) (1 / (det s^4) = 1 / h^4).
+fn spacing(d: &Derivation, n: usize) -> f64 {
+    let det = d.filter.lattice.det().unsigned_abs() as f64;
+    2.0 / (n - 1) as f64 / det.powf(0.25)
+}
+
+/// Lattice points of `d` inside [-1, 1]^4 at budget `n`.
+fn samples_inside(d: &Derivation, n: usize) -> usize {
+    let m = (1.0 / spacing(d, n)).floor() as i64;
+    let side = (2 * m + 1) as usize;
+    let cells: Vec<usize> = (0..side.pow(2)).collect();
+    crate::verify::par_map(&cells, |&c| {
+        let (x, y) = ((c % side) as i64 - m, (c / side) as i64 - m);
+        (-m..=m).flat_map(|z| (-m..=m).map(move |w| [x, y, z, w])).filter(|j| d.filter.lattice.contains(j)).count()
+    })
+    .iter()
+    .sum()
 }
 
 /// RMS of `d` against the signal at budget `n` (prefiltered and plain), at
@@ -146,11 +133,10 @@ pub fn quality(gpu: &Gpu, d: &Derivation, n: usize, points: usize) -> Result<Qua
     let mut rng = Rng(0x4D_0000 + n as u64);
     let world: Vec<[f64; 4]> = (0..points).map(|_| std::array::from_fn(|_| -1.0 + 2.0 * rng.next_f64())).collect();
     let mut rms = [0.0; 2];
-    let mut samples = 0;
     let mut scale = 0.0;
     for (slot, pre) in [(0, true), (1, false)] {
-        let (vol, sc, u, inside) = sampled(d, n, pre);
-        (samples, scale) = (inside, sc);
+        let (vol, sc, u) = sampled(d, n, pre);
+        scale = sc;
         let pts: Vec<[f32; 4]> = world.iter().map(|x| x.map(|c| (c * sc + u as f64) as f32)).collect();
         let dv = DeviceVolume4::new(gpu, &vol, layout)?;
         let job = Job::new4(gpu, &src, &m.file_name, &dv, &pts)?;
@@ -163,7 +149,7 @@ pub fn quality(gpu: &Gpu, d: &Derivation, n: usize, points: usize) -> Result<Qua
         filter: name.clone(),
         lattice: d.filter.lattice.name.clone(),
         budget_n: n,
-        samples,
+        samples: samples_inside(d, n),
         scale,
         rms_prefiltered: rms[0],
         rms_plain: rms[1],
