@@ -52,7 +52,8 @@ fn an_isosurface_between_frames_is_the_4d_spline_not_the_blend() {
     );
 }
 
-/// `boxforge render` with a 4D filter: one frame at a time between samples,
+/// `boxforge render` with a 4D filter: one frame at a time between samples
+/// (exact hits),
 /// an animation of numbered PNGs, and one-line refusals (exit 2, nothing
 /// written) for what it does not do.
 #[test]
@@ -70,6 +71,8 @@ fn render_cli_draws_time_series() {
         "ml-drift:16,4",
         "--time",
         "1.5",
+        "--hit",
+        "exact",
         "--size",
         "32",
         "--out",
@@ -127,7 +130,7 @@ fn render_cli_draws_time_series() {
     let bad = dir.as_path().join("bad.png");
     for args in [
         &["--filter", "z4_linear", "--volume", "ml-drift:16,4", "--time", "7"][..],
-        &["--filter", "z4_linear", "--volume", "ml-drift:16,4", "--hit", "exact"],
+        &["--filter", "z4_linear", "--volume", "ml-drift:16,4", "--hit", "exact", "--mode", "dvr"],
         &["--filter", "d4star8", "--volume", "ml-drift:16,4", "--layout", "bricked"],
         &["--filter", "bcc7", "--volume", "ml:16", "--time", "1"],
         &["--filter", "z4_linear", "--volume", "ml-drift:16"],
@@ -169,4 +172,37 @@ fn a_dvr_frame_between_frames_is_the_4d_spline_not_the_blend() {
     let rms_blend = rms_rgb(&frame, &bf);
     assert!(rms_blend > 1.0 / 255.0, "the blend's frame differs: RMS {rms_blend:.2e}");
     eprintln!("4D DVR at t = {t}: {lit} lit; vs exact RMS {rms:.2e}; vs the blend RMS {rms_blend:.2e}");
+}
+
+/// The exact-hit mode: each ray is cut where the 4D knot planes meet the
+/// frame's time, and every polynomial piece is searched for its first root.
+/// The device's frame equals the exact evaluator's walk on Z^4 (grid planes
+/// only) and on D4* (knot planes slanted in time, whose traces move with t),
+/// at a time between samples. (That such frames are not the blend's is the
+/// fixed-step test's: both modes find the same surface.)
+#[test]
+fn exact_hits_between_frames_follow_the_4d_knot_planes() {
+    use boxforge_runtime::render::four::cpu_reference_exact;
+    let gpu = crate::common::gpu();
+    let o = FourIsoOptions { width: 24, height: 24, exact: true, ..FourIsoOptions::default() };
+    let check = |name: &str, vol: &LatticeVolume4, layout: Layout, t: f32| {
+        let d = Derivation::new(&boxforge::spec::catalog::get(name).unwrap()).unwrap();
+        let frame = FourIsoRenderer::new(gpu, &d, vol, layout).unwrap().render(t, &o).unwrap();
+        let hits = frame.chunks(4).filter(|p| p[0] > 0).count();
+        assert!(hits > 60, "{name}: the surface covers part of the frame ({hits} of 576 pixels)");
+        let exact = cpu_reference_exact(&d, vol, t as f64, &o);
+        let (rms, one_sided, _) = compare(&frame, &exact);
+        assert!(
+            rms < 1.0 / 255.0 && one_sided <= 6,
+            "{name} against the exact walk: RMS {rms:.2e}, {one_sided} pixels hit by one"
+        );
+        eprintln!(
+            "4D exact hit, {name} at t = {t}: {hits} hits; vs the exact walk RMS {rms:.2e} ({one_sided} one-sided)"
+        );
+    };
+    let series = VolumeSeries::marschner_lobb_drift([16, 16, 16, 5]).unwrap();
+    check("z4_cubic", &LatticeVolume4::from_series(&series), Layout::Embedded, 2.5);
+    let lattice = boxforge::spec::catalog::get("d4star8").unwrap().lattice;
+    let (vol, _) = LatticeVolume4::marschner_lobb_drift(&lattice, 14, 4).unwrap();
+    check("d4star8", &vol, Layout::Packed, 2.5);
 }

@@ -9,8 +9,16 @@
 //! [`FourIsoRenderer::render_dvr`] draws emission-absorption volume
 //! renderings the same way ([`cpu_reference_dvr`] its reference).
 //!
-//! A first 4D renderer: orthographic, fixed steps, no empty-space skipping
-//! (the 3D ray caster's min/max blocks have no 4D counterpart yet).
+//! With [`FourIsoOptions::exact`] the isosurface is found by the exact
+//! first-hit walk instead of fixed steps ([`hit`]): the ray is cut into the
+//! segments where the 4D spline is one polynomial and the first root is
+//! isolated on each ([`cpu_reference_exact`] its reference).
+//!
+//! Orthographic, no empty-space skipping (the 3D ray caster's min/max
+//! blocks have no 4D counterpart yet).
+
+pub mod hit;
+pub use hit::cpu_reference_exact;
 
 use crate::gpu::binding::storage_entry;
 use crate::gpu::Gpu;
@@ -32,11 +40,14 @@ pub struct FourIsoOptions {
     /// ends have the same sign is missed; 0.25 resolves the test signal).
     pub step: f32,
     pub camera: Camera,
+    /// The exact first hit (every piece of the spline along the ray
+    /// searched for its first root) instead of fixed steps and bisection.
+    pub exact: bool,
 }
 
 impl Default for FourIsoOptions {
     fn default() -> Self {
-        FourIsoOptions { width: 256, height: 256, iso: 0.5, step: 0.25, camera: Camera::default() }
+        FourIsoOptions { width: 256, height: 256, iso: 0.5, step: 0.25, camera: Camera::default(), exact: false }
     }
 }
 
@@ -96,6 +107,16 @@ fn four_f(p: vec3<f32>) -> f32 {{
     return {name}_eval(vec4<f32>(p, four_p.misc.x)) - four_p.misc.y;
 }}
 
+/// The grey level of a surface point p seen along dir (headlight on the
+/// spatial gradient), opaque RGBA8.
+fn four_shade(p: vec3<f32>, dir: vec3<f32>) -> u32 {{
+    let g = {name}_eval_grad(vec4<f32>(p, four_p.misc.x)).gradient.xyz;
+    let len = length(g);
+    let shade = select(0.15, 0.15 + 0.85 * abs(dot(g / len, dir)), len > 0.0);
+    let v = u32(round(clamp(shade, 0.0, 1.0) * 255.0));
+    return 0xff000000u | (v << 16u) | (v << 8u) | v;
+}}
+
 @compute @workgroup_size(8, 8)
 fn four_iso_main(@builtin(global_invocation_id) gid: vec3<u32>) {{
     let w = four_p.size.x;
@@ -130,12 +151,7 @@ fn four_iso_main(@builtin(global_invocation_id) gid: vec3<u32>) {{
                         hi = m;
                     }}
                 }}
-                let p = o + dir * (0.5 * (lo + hi));
-                let g = {name}_eval_grad(vec4<f32>(p, four_p.misc.x)).gradient.xyz;
-                let len = length(g);
-                let shade = select(0.15, 0.15 + 0.85 * abs(dot(g / len, dir)), len > 0.0);
-                let v = u32(round(clamp(shade, 0.0, 1.0) * 255.0));
-                color = 0xff000000u | (v << 16u) | (v << 8u) | v;
+                color = four_shade(o + dir * (0.5 * (lo + hi)), dir);
                 break;
             }}
             a = b;
@@ -207,6 +223,14 @@ pub struct FourIsoRenderer<'a> {
     bg0: wgpu::BindGroup,
     lo: [f32; 3],
     hi: [f32; 3],
+    /// The module and caster, and the exact walk's plan: the exact-hit
+    /// pipeline is compiled on the first frame that asks for it.
+    source: String,
+    plan: Option<crate::render::iso::TimeHitPlan>,
+    file_name: String,
+    name: String,
+    exact_pipeline: std::cell::OnceCell<wgpu::ComputePipeline>,
+    bgl0: wgpu::BindGroupLayout,
 }
 
 impl<'a> FourIsoRenderer<'a> {
@@ -242,7 +266,21 @@ impl<'a> FourIsoRenderer<'a> {
             })
         })?;
         let (lo, hi) = valid_box(d, vol);
-        Ok(FourIsoRenderer { gpu, pipeline, dvr_pipeline, bgl1, bg0, lo, hi })
+        Ok(FourIsoRenderer {
+            gpu,
+            pipeline,
+            dvr_pipeline,
+            bgl1,
+            bg0,
+            lo,
+            hi,
+            source,
+            plan: crate::render::iso::TimeHitPlan::new(d),
+            file_name: module.file_name,
+            name: d.filter.name.clone(),
+            exact_pipeline: std::cell::OnceCell::new(),
+            bgl0,
+        })
     }
 
     /// The frame at time `t` (lattice units of the time axis: frame k at
@@ -284,9 +322,30 @@ impl<'a> FourIsoRenderer<'a> {
                 ],
             })
         })?;
-        let pipeline = if tf.is_some() { &self.dvr_pipeline } else { &self.pipeline };
+        let pipeline = match tf {
+            Some(_) => &self.dvr_pipeline,
+            None if o.exact => self.exact_pipeline()?,
+            None => &self.pipeline,
+        };
         gpu.dispatch("4d frame", pipeline, &[&self.bg0, &bg1], (o.width.div_ceil(8), o.height.div_ceil(8), 1))?;
         Ok(gpu.read_buffer(&img)?)
+    }
+}
+
+impl FourIsoRenderer<'_> {
+    /// The exact-hit pipeline, compiled once.
+    fn exact_pipeline(&self) -> Result<&wgpu::ComputePipeline, RenderError> {
+        if let Some(p) = self.exact_pipeline.get() {
+            return Ok(p);
+        }
+        let plan = self
+            .plan
+            .as_ref()
+            .ok_or(RenderError::Gpu(crate::gpu::GpuError::Runtime("the exact hit needs a 4D filter".into())))?;
+        let source = format!("{}\n{}", self.source, hit::exact_shader(&self.name, plan));
+        let sm = self.gpu.compile(&self.file_name, &source)?;
+        let p = self.gpu.pipeline("four_exact_main", &sm, &[&self.bgl0, &self.bgl1], "four_exact_main")?;
+        Ok(self.exact_pipeline.get_or_init(|| p))
     }
 }
 
@@ -350,20 +409,21 @@ pub fn cpu_reference(d: &Derivation, vol: &LatticeVolume4, t: f64, o: &FourIsoOp
                         r = m;
                     }
                 }
-                let g = d.eval_f64(&at(0.5 * (l + r)), &data).1;
-                let len = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
-                let shade = if len > 0.0 {
-                    0.15 + 0.85 * ((g[0] * fwd[0] + g[1] * fwd[1] + g[2] * fwd[2]) / len).abs()
-                } else {
-                    0.15
-                };
-                let v = (shade.clamp(0.0, 1.0) * 255.0).round() as u8;
-                return [v, v, v, 255];
+                return shade(&d.eval_f64(&at(0.5 * (l + r)), &data).1, fwd);
             }
             (a, fa) = (b, fb);
         }
         [0, 0, 0, 255]
     })
+}
+
+/// `four_shade` on the CPU: the grey level of a surface point with
+/// gradient `g` (its spatial part) seen along `fwd`.
+fn shade(g: &[f64], fwd: [f64; 3]) -> [u8; 4] {
+    let len = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
+    let s = if len > 0.0 { 0.15 + 0.85 * ((g[0] * fwd[0] + g[1] * fwd[1] + g[2] * fwd[2]) / len).abs() } else { 0.15 };
+    let v = (s.clamp(0.0, 1.0) * 255.0).round() as u8;
+    [v, v, v, 255]
 }
 
 /// [`FourIsoRenderer::render_dvr`]'s frame from the exact evaluator (f64),

@@ -76,18 +76,20 @@ impl HitPlan {
     pub fn new(d: &Derivation) -> HitPlan {
         let arr = &d.arrangement;
         let grid_offset = [0, 1, 2].map(|i| arr.grid_offset[i].to_f64());
-        let mut families: Vec<([f64; 3], f64, f64)> = (0..3)
-            .map(|i| {
-                let mut n = [0.0; 3];
-                n[i] = 1.0;
-                (n, grid_offset[i], 1.0)
-            })
-            .collect();
+        let mut families = grid_families(grid_offset);
         for f in &arr.families {
             if f.normal.iter().filter(|&&c| c != 0).count() > 1 {
                 families.push(([0, 1, 2].map(|i| f.normal[i] as f64), f.offset.to_f64(), f.period as f64));
             }
         }
+        let ray_bernstein =
+            if families.len() == 3 { boxforge::emit::factored::ray_bernstein_fn(d, &d.filter.name) } else { None };
+        HitPlan { ray_bernstein, ..HitPlan::with_families(d, families, grid_offset) }
+    }
+
+    /// The plan for these cutting planes: the sampling and conversions
+    /// follow from the filter's degree and continuity alone.
+    fn with_families(d: &Derivation, families: Vec<([f64; 3], f64, f64)>, grid_offset: [f64; 3]) -> HitPlan {
         let n = d.facts.degree;
         let pi = std::f64::consts::PI;
         let cheb = |k: usize, m: usize| 0.5 * (1.0 - (pi * k as f64 / m as f64).cos());
@@ -132,10 +134,8 @@ impl HitPlan {
             assert_eq!(rows.len(), n + 1, "degree + 1 conditions");
             carried_to_bernstein = invert(&rows);
         }
-        let ray_bernstein =
-            if families.len() == 3 { boxforge::emit::factored::ray_bernstein_fn(d, &d.filter.name) } else { None };
         HitPlan {
-            ray_bernstein,
+            ray_bernstein: None,
             families,
             grid_offset,
             degree: n,
@@ -161,6 +161,70 @@ impl HitPlan {
     /// Samples per segment that call the evaluator (shared ends not counted).
     pub fn evals_per_segment(&self) -> usize {
         self.samples.len() - self.shared_ends as usize
+    }
+}
+
+/// The grid planes x_i in o_i + Z of the three spatial axes.
+fn grid_families(grid_offset: [f64; 3]) -> Vec<([f64; 3], f64, f64)> {
+    (0..3)
+        .map(|i| {
+            let mut n = [0.0; 3];
+            n[i] = 1.0;
+            (n, grid_offset[i], 1.0)
+        })
+        .collect()
+}
+
+/// The exact first-hit plan of a 4D filter on the hyperplane t = T of a
+/// time-varying volume. A 4D knot plane n . x in offset + period Z meets
+/// that hyperplane in the 3D plane n_xyz . x in (offset - n_t T) + period Z,
+/// so the families of the walk are those of the 4D arrangement whose normal
+/// has a spatial part, their offsets moving with T (the shader adds n_t T
+/// per ray); normals along t alone never cut a ray at fixed t, and the
+/// spatial axes are grid planes. Between two crossings the ray stays in one
+/// 4D cell, where the spline is one polynomial of the filter's degree.
+#[derive(Clone, Debug)]
+pub struct TimeHitPlan {
+    /// The plan with the families' offsets at T = 0.
+    pub plan: HitPlan,
+    /// n_t of each family of `plan.families` (0 for the grid planes).
+    pub time_normals: Vec<f64>,
+}
+
+impl TimeHitPlan {
+    /// The plan of a 4D filter (None for other dimensions).
+    pub fn new(d: &Derivation) -> Option<TimeHitPlan> {
+        let arr = &d.arrangement;
+        if arr.grid_offset.len() != 4 {
+            return None;
+        }
+        let grid_offset = [0, 1, 2].map(|i| arr.grid_offset[i].to_f64());
+        let mut families = grid_families(grid_offset);
+        let mut time_normals = vec![0.0; 3];
+        for f in &arr.families {
+            let spatial = f.normal[..3].iter().filter(|&&c| c != 0).count();
+            if spatial > 0 && f.normal.iter().filter(|&&c| c != 0).count() > 1 {
+                families.push(([0, 1, 2].map(|i| f.normal[i] as f64), f.offset.to_f64(), f.period as f64));
+                time_normals.push(f.normal[3] as f64);
+            }
+        }
+        // Every segment is sampled afresh: no carried second derivatives
+        // (the 4D walk samples in one loop, see templates/four_hit.wgsl.j2).
+        let plan = HitPlan {
+            carried_samples: vec![],
+            carried_to_bernstein: vec![],
+            ..HitPlan::with_families(d, families, grid_offset)
+        };
+        Some(TimeHitPlan { plan, time_normals })
+    }
+
+    /// The 3D plan at time `t`: the families' offsets moved to t.
+    pub fn at(&self, t: f64) -> HitPlan {
+        let mut plan = self.plan.clone();
+        for ((_, off, _), nt) in plan.families.iter_mut().zip(&self.time_normals) {
+            *off -= nt * t;
+        }
+        plan
     }
 }
 
@@ -396,6 +460,57 @@ mod tests {
         let v: Vec<f64> = nodes.iter().map(|&x| q(x)).collect();
         let c: Vec<f64> = inv.iter().map(|r| r.iter().zip(&v).map(|(a, b)| a * b).sum()).collect();
         assert_eq!(first_root(&c, 1e-9), None);
+    }
+
+    /// Between two crossings of a 4D plan at time t the exact evaluator is
+    /// one polynomial of the filter's degree along the ray (the fit through
+    /// degree + 1 points predicts others), on arbitrary data, for the grid
+    /// planes of Z^4 and the time-slanted knot planes of D4*; with the
+    /// traces of the planes at another time (D4*) it is not.
+    #[test]
+    fn a_4d_plan_cuts_rays_where_the_pieces_change() {
+        assert!(TimeHitPlan::new(&derive("bcc7")).is_none());
+        for name in ["z4_linear", "d4star8"] {
+            let d = derive(name);
+            let time_plan = TimeHitPlan::new(&d).unwrap();
+            let data = |j: &[i64]| {
+                let h = j.iter().fold(17u64, |h, &x| h.wrapping_mul(0x9e37_79b9_7f4a_7c15).wrapping_add(x as u64 + 3));
+                ((h >> 33) % 1000) as f64 / 1000.0
+            };
+            let t = 5.37;
+            let f = |x: DVec3| d.eval_f64(&[x.x, x.y, x.z, t], &data).0;
+            let origin = DVec3::new(5.1, 4.3, 6.2);
+            let dir = DVec3::new(0.71, 0.43, 0.37).normalize();
+            // Whether every segment between the plan's crossings is one polynomial.
+            let pieces_fit = |plan: &HitPlan| -> bool {
+                let n = plan.degree;
+                let fam: Vec<(f64, f64, f64)> = plan
+                    .families
+                    .iter()
+                    .map(|(nv, off, g)| (DVec3::from_array(*nv).dot(origin) - off, DVec3::from_array(*nv).dot(dir), *g))
+                    .collect();
+                let mut a = 0.0;
+                while a < 4.0 {
+                    let b = fam.iter().map(|&(p, q, g)| next_crossing(p, q, g, a + 1e-9)).fold(f64::INFINITY, f64::min);
+                    let xs: Vec<f64> = (0..=n).map(|i| 0.05 + 0.9 * i as f64 / n as f64).collect();
+                    let ys: Vec<f64> = xs.iter().map(|&u| f(origin + (a + (b - a) * u) * dir)).collect();
+                    let m: Vec<Vec<f64>> = xs.iter().map(|&x| (0..=n).map(|j| bernstein(n, j, x)).collect()).collect();
+                    let c: Vec<f64> = invert(&m).iter().map(|r| r.iter().zip(&ys).map(|(w, y)| w * y).sum()).collect();
+                    for u in [0.0, 0.13, 0.51, 0.88, 1.0] {
+                        if (bernstein_at(&c, u) - f(origin + (a + (b - a) * u) * dir)).abs() > 1e-9 {
+                            return false;
+                        }
+                    }
+                    a = b;
+                }
+                true
+            };
+            assert!(pieces_fit(&time_plan.at(t)), "{name}: one polynomial between crossings");
+            if name == "d4star8" {
+                assert!(time_plan.time_normals.iter().any(|&n| n != 0.0), "slanted in time");
+                assert!(!pieces_fit(&time_plan.at(t - 0.5)), "{name}: the planes move with t");
+            }
+        }
     }
 
     #[test]

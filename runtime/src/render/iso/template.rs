@@ -5,12 +5,12 @@
 use super::hit::*;
 
 /// f32 literal for WGSL.
-fn lit(x: f64) -> String {
+pub(crate) fn lit(x: f64) -> String {
     format!("{:?}", x as f32)
 }
 
 /// Coefficient expressions c_j = sum_k w_jk names_k.
-fn coefficient_exprs(m: &[Vec<f64>], names: &[String]) -> Vec<String> {
+pub(crate) fn coefficient_exprs(m: &[Vec<f64>], names: &[String]) -> Vec<String> {
     m.iter()
         .map(|row| {
             let terms: Vec<String> = row
@@ -156,6 +156,9 @@ fn hit_context(plan: &HitPlan, name: &str) -> minijinja::Value {
     }
 }
 
+/// The first-root search shared by the exact walks (`templates/hit_roots.wgsl.j2`).
+pub(crate) const HIT_ROOTS: &str = include_str!("../../../../templates/hit_roots.wgsl.j2");
+
 /// The ray caster for this filter: the fixed-step walk, or with `exact`
 /// the exact walk over a fine bounds grid of `fine` = (edge, blocks per axis);
 /// with `host_depth` the host-depth input of the native per-frame renderer
@@ -170,6 +173,7 @@ pub(crate) fn template(
     let env = {
         let mut env = minijinja::Environment::new();
         env.add_template("raycast", include_str!("../../../../templates/raycast.wgsl.j2")).expect("template");
+        env.add_template("hit_roots", HIT_ROOTS).expect("template");
         env
     };
     let ctx = match exact {

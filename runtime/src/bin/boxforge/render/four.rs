@@ -72,7 +72,7 @@ pub(super) fn run(a: &RenderArgs, d: &Derivation) -> Result<(), Failure> {
     // What the 4D renderer does not do yet, refused by name.
     let refuse = |flag: &str| -> Result<(), Failure> {
         Err(Failure(format!(
-            "{flag} is not offered for 4D filters yet (they render isosurfaces, fixed steps): drop it"
+            "{flag} is not offered for 4D filters yet (orthographic isosurfaces and DVR, in core): drop it"
         )))
     };
     request::check_render_mode(a.mode.name(), a.tf.as_deref(), a.no_preintegration)?;
@@ -83,8 +83,9 @@ pub(super) fn run(a: &RenderArgs, d: &Derivation) -> Result<(), Failure> {
     if a.gpu_budget.is_some() {
         return refuse("--gpu-budget");
     }
-    if a.hit != super::HitArg::Step {
-        return refuse("--hit exact");
+    let exact = a.hit != super::HitArg::Step;
+    if exact && dvr {
+        return Err(Failure("--hit exact finds isosurfaces; DVR samples fixed steps: drop --hit or --mode dvr".into()));
     }
     if a.shade != super::ShadeArg::Phong {
         return refuse("--shade");
@@ -122,6 +123,7 @@ pub(super) fn run(a: &RenderArgs, d: &Derivation) -> Result<(), Failure> {
         iso: a.iso,
         step: a.step,
         camera: Camera { azimuth: az, elevation: el, perspective: false },
+        exact,
     };
     // DVR: --tf, or a ramp over the samples' range.
     let tf = if dvr {
