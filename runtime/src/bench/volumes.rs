@@ -177,6 +177,12 @@ pub fn markdown(r: &VolumesReport, command: &str) -> String {
         );
     }
     let _ = writeln!(s);
+    if r.adapter.contains("llvmpipe") {
+        let _ = writeln!(
+            s,
+            "On llvmpipe a texel fetch is a software gather: Mesa's `lp_build_gather` (gallivm/lp_bld_gather.c) uses AVX2's vector gather only for 32-bit texels that need no expansion, and loads 8-bit ones lane by lane, so an R8Unorm fetch costs more than an R32Float one there whatever the memory saved. On a GPU the u8 volume is the faster one (the GPU record below). Packing four u8 samples into one R32Uint texel would keep lavapipe on the vector gather (not done yet).\n"
+        );
+    }
     if !r.out_of_core.is_empty() {
         let _ = writeln!(
             s,
@@ -260,4 +266,26 @@ pub fn splice(file: &str, section: &str) -> String {
 /// This section of `file`, if it has one.
 pub fn existing_section(file: &str) -> Option<&str> {
     super::derive::section_between(file, SECTION_START, SECTION_END)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The note on llvmpipe's gathers is written for llvmpipe only.
+    #[test]
+    fn the_gather_note_is_for_llvmpipe_only() {
+        let report = |adapter: &str| VolumesReport {
+            adapter: adapter.into(),
+            in_core_volume: "Marschner-Lobb, 32^3 box".into(),
+            size: 64,
+            rounds: 1,
+            in_core: vec![],
+            out_of_core: vec![],
+        };
+        let cpu = markdown(&report("llvmpipe (LLVM 15.0.6, 256 bits) (Cpu, Vulkan, driver llvmpipe)"), "bench");
+        assert!(cpu.contains("lp_build_gather"), "{cpu}");
+        let gpu = markdown(&report("NVIDIA H200 (DiscreteGpu, Vulkan)"), "bench");
+        assert!(!gpu.contains("lp_build_gather"), "{gpu}");
+    }
 }
