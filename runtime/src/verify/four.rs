@@ -145,22 +145,12 @@ impl<'a> Evaluator4<'a> {
         let source = format!("{}\n{}", module.source, wrapper(&d.filter.name, module.stats.hessian_form.is_some()));
         let shader = gpu.compile(&module.file_name, &source)?;
         let dev = &gpu.device;
-        let bgl0 = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("4d samples"),
-            entries: &[dv.layout_entry(0)],
-        });
+        let (bgl0, bg0) = dv.group(gpu)?;
         let bgl1 = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("io"),
             entries: &[storage_entry(0, true), storage_entry(1, false)],
         });
         let pipeline = gpu.pipeline("verify4_main", &shader, &[&bgl0, &bgl1], "verify4_main")?;
-        let bg0 = gpu.checked("bind the 4D samples", || {
-            dev.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("4d samples"),
-                layout: &bgl0,
-                entries: &[dv.bind_entry(0)],
-            })
-        })?;
         Ok(Evaluator4 { gpu, pipeline, bgl1, bg0, stats: module.stats })
     }
 

@@ -289,6 +289,24 @@ impl DeviceVolume4 {
     pub fn bind_entry(&self, binding: u32) -> wgpu::BindGroupEntry<'_> {
         wgpu::BindGroupEntry { binding, resource: self.buffer.as_entire_binding() }
     }
+
+    /// The samples as a bind group of their own (binding 0, the emitted
+    /// module's `<f>_samples`) and its layout: group 0 of every 4D pipeline.
+    pub fn group(&self, gpu: &Gpu) -> Result<(wgpu::BindGroupLayout, wgpu::BindGroup), crate::gpu::GpuError> {
+        let dev = &gpu.device;
+        let layout = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("4d samples"),
+            entries: &[self.layout_entry(0)],
+        });
+        let group = gpu.checked("bind the 4D samples", || {
+            dev.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("4d samples"),
+                layout: &layout,
+                entries: &[self.bind_entry(0)],
+            })
+        })?;
+        Ok((layout, group))
+    }
 }
 
 #[cfg(test)]

@@ -248,23 +248,13 @@ impl<'a> FourIsoRenderer<'a> {
         let source = format!("{}\n{}", module.source, shader(&d.filter.name));
         let sm = gpu.compile(&module.file_name, &source)?;
         let dev = &gpu.device;
-        let bgl0 = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("4d samples"),
-            entries: &[dv.layout_entry(0)],
-        });
+        let (bgl0, bg0) = dv.group(gpu)?;
         let bgl1 = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("4d iso"),
             entries: &[storage_entry(0, true), storage_entry(1, false), storage_entry(2, true)],
         });
         let pipeline = gpu.pipeline("four_iso_main", &sm, &[&bgl0, &bgl1], "four_iso_main")?;
         let dvr_pipeline = gpu.pipeline("four_dvr_main", &sm, &[&bgl0, &bgl1], "four_dvr_main")?;
-        let bg0 = gpu.checked("bind the 4D samples", || {
-            dev.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("4d samples"),
-                layout: &bgl0,
-                entries: &[dv.bind_entry(0)],
-            })
-        })?;
         let (lo, hi) = valid_box(d, vol);
         Ok(FourIsoRenderer {
             gpu,
