@@ -154,6 +154,7 @@ fn verify_module(
             bounds,
             fetch: if vol.filtered() { FetchMode::Linear } else { FetchMode::Exact },
             samples: vol.map,
+            texels: vol.format.texels(),
             ..Default::default()
         },
     )

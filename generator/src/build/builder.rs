@@ -97,6 +97,7 @@ pub struct Builder {
     form: Option<EvalForm>,
     bounds: Bounds,
     fetch: FetchMode,
+    texels: crate::emit::Texels,
     caps: Option<Caps>,
     target: Target,
     emit_rerun_if_changed: bool,
@@ -136,6 +137,7 @@ impl Builder {
             form: None,
             bounds: Bounds::Clamp,
             fetch: FetchMode::Exact,
+            texels: crate::emit::Texels::Float,
             caps: None,
             target: Target::Wgsl,
             emit_rerun_if_changed: std::env::var_os("OUT_DIR").is_some(),
@@ -209,6 +211,16 @@ impl Builder {
     /// The module is written as `<filter>.<layout>.linear.wgsl`.
     pub fn fetch(mut self, f: FetchMode) -> Self {
         self.fetch = f;
+        self
+    }
+
+    /// What a sample texel holds (default [`crate::emit::Texels::Float`]:
+    /// one sample per texel in any float-readable format). With
+    /// [`crate::emit::Texels::U8x4`] the module reads four u8 samples per
+    /// r32uint texel, and the host builds its sample map with a scale of
+    /// (range) / 255.
+    pub fn texels(mut self, t: crate::emit::Texels) -> Self {
+        self.texels = t;
         self
     }
 
@@ -310,6 +322,7 @@ impl Builder {
             bounds: self.bounds,
             fetch: self.fetch,
             samples: crate::emit::SampleMap::IDENTITY,
+            texels: self.texels,
         };
         let mut modules = Vec::new();
         for f in &filters {

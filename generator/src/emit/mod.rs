@@ -148,6 +148,51 @@ pub struct EmitOptions {
     /// What a stored sample means: value = offset + scale * stored (compact
     /// formats store normalized samples); identity by default.
     pub samples: SampleMap,
+    /// What one texel of the sample texture holds: one f32-readable sample
+    /// (default) or four 8-bit samples in an r32uint word.
+    pub texels: Texels,
+}
+
+/// What one texel of the sample texture (or brick pool) holds.
+///
+/// Why [`Texels::U8x4`] exists: on software rasterizers (Mesa's llvmpipe, so
+/// lavapipe) a texel fetch is a gather, and its vector path serves only
+/// 32-bit texels that need no expansion; an R8Unorm fetch loads lane by
+/// lane and loses to R32Float. Four 8-bit samples per r32uint word keep the
+/// fetch on the 32-bit path at a quarter of f32's memory, for one shift and
+/// mask per sample.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Texels {
+    /// One sample per texel, read as `texture_Nd<f32>` (r32float, r16float,
+    /// r16unorm or r8unorm: the same module reads each).
+    #[default]
+    Float,
+    /// Four u8 samples per `texture_Nd<u32>` texel along x: sample x in byte
+    /// x & 3 (least significant first) of texel x >> 2. A sample reads as its
+    /// integer 0..255, so the [`SampleMap`] spans the range over 255 levels.
+    /// The texture is ceil(width / 4) texels wide; the embedded layout's
+    /// clamp reaches 4 * that width - 1, so its host repeats the last sample
+    /// of a row into the padding bytes.
+    U8x4,
+}
+
+impl Texels {
+    /// The name used on the command line (and in reports).
+    pub fn name(self) -> &'static str {
+        match self {
+            Texels::Float => "float",
+            Texels::U8x4 => "u8x4",
+        }
+    }
+    /// The value named `s` (see [`name`](Self::name)); None for any other string.
+    pub fn parse(s: &str) -> Option<Texels> {
+        match s {
+            "float" => Some(Texels::Float),
+            "u8x4" => Some(Texels::U8x4),
+            _ => None,
+        }
+    }
 }
 
 /// The affine map from stored samples to values: value = offset + scale *
@@ -281,6 +326,7 @@ impl Default for EmitOptions {
             bounds: Bounds::Clamp,
             fetch: FetchMode::Exact,
             samples: SampleMap::IDENTITY,
+            texels: Texels::Float,
         }
     }
 }
@@ -331,10 +377,10 @@ pub struct EmitStats {
 pub fn binding_purpose(filter: &str, name: &str) -> Option<&'static str> {
     Some(match name.strip_prefix(filter)?.strip_prefix('_')? {
         "samples" => "The 4D samples as a read-only storage buffer: a vec4<i32> header (the stored extent, embedded; one coset's grid size, packed), then the f32 samples x fastest, then y, z and w (packed: the coset grids tiled as in the packed texture layout).",
-        "volume" => "The samples as an r32float texture: lattice point j at texel j (the other texels are unused).",
+        "volume" => "The samples as an r32float texture (r16float, r16unorm, r8unorm read the same; u8x4 modules: r32uint, four u8 samples a texel along x): lattice point j at texel j (the other texels are unused).",
         "cosets" => "The samples packed per coset of 2Z^s as one r32float texture (filterable with fetch = linear): lattice point j at texel (j >> 1) + (j & p) * grid.size, p = 1 on the pivot axes of the coset id, so each coset's grid is one tile.",
         "grid" => "The coset grid: its size (x, y, z or x, y) and, in w, the words per coset.",
-        "pool" => "The brick pool as an r32float (or compact-format) texture: slot s holds brick k's texels k * B - h .. (k + 1) * B + h (clamped to the volume), as they are (bricked) or coset-packed in a tile per coset (bricked-packed).",
+        "pool" => "The brick pool as an r32float (or compact-format; u8x4 modules: r32uint, four u8 samples a texel along x) texture: slot s holds brick k's texels k * B - h .. (k + 1) * B + h (clamped to the volume), as they are (bricked) or coset-packed in a tile per coset (bricked-packed).",
         "bricks" => "The brick geometry: the volume's size in lattice texels (bricked) or its coset grid size (bricked-packed) with the brick edge B in w, and the bricks per axis with the halo h in w.",
         "pages" => "The page table as an r32uint texture, one texel per brick: its slot (10 bits per axis in 3D, 16 in 2D).",
         "linear" => "A linear, clamp-to-edge sampler for the hardware-filtered fetches.",
@@ -347,7 +393,7 @@ pub fn binding_purpose(filter: &str, name: &str) -> Option<&'static str> {
 /// One emitted WGSL module: its file name, source and counts.
 #[derive(Clone, Debug)]
 pub struct Emitted {
-    /// File name: `<filter>.<layout>[.naive][.linear].wgsl`.
+    /// File name: `<filter>.<layout>[.naive][.linear][.u8x4].wgsl`.
     pub file_name: String,
     /// The WGSL source.
     pub source: String,
@@ -392,6 +438,15 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
         if opts.fetch == FetchMode::Linear {
             return Err(refuse("hardware-filtered (linear) fetch", "use exact fetches (--fetch exact)"));
         }
+        if opts.texels != Texels::Float {
+            return Err(refuse("packed u8 texels", "store the samples as f32 (--texels float)"));
+        }
+    }
+    if opts.texels == Texels::U8x4 && opts.fetch == FetchMode::Linear {
+        return Err(Error::Unsupported {
+            origin: format!("filter {}", d.filter.name),
+            message: "hardware-filtered (linear) fetches need a filterable texture, and u8x4 words are integers; use exact fetches or --texels float".into(),
+        });
     }
     let polynomials = d.polynomials();
     if polynomials > d.filter.caps.max_emitted_polynomials {
@@ -632,6 +687,10 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
         prefilter_body => prefilter_body,
         clamp => opts.bounds == Bounds::Clamp,
         linear => opts.fetch == FetchMode::Linear,
+        words => opts.texels == Texels::U8x4,
+        texel_type => if opts.texels == Texels::U8x4 { "u32" } else { "f32" },
+        word_shift => if s == 3 { "vec3<u32>(2u, 0u, 0u)" } else { "vec2<u32>(2u, 0u)" },
+        word_width => if s == 3 { "vec3<i32>(4, 1, 1)" } else { "vec2<i32>(4, 1)" },
         mapped => !map.is_identity(),
         sample_scale => lit_f32(map.scale),
         sample_offset => lit_f32(map.offset),
@@ -662,6 +721,9 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
     let mut file = file_name(name, opts.layout, opts.variant);
     if opts.fetch == FetchMode::Linear {
         file = file.replace(".wgsl", ".linear.wgsl");
+    }
+    if opts.texels == Texels::U8x4 {
+        file = file.replace(".wgsl", ".u8x4.wgsl");
     }
     Ok(Emitted { file_name: file, source, stats })
 }

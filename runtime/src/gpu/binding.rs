@@ -17,6 +17,29 @@ pub fn texture_3d_entry(binding: u32, visibility: wgpu::ShaderStages, filterable
     }
 }
 
+/// The binding of a sample texture stored in `format`: `texture_3d<f32>`
+/// (filterable when `filterable`), or `texture_3d<u32>` for u8 words.
+pub fn samples_texture_entry(
+    binding: u32,
+    visibility: wgpu::ShaderStages,
+    format: crate::volume::SampleFormat,
+    filterable: bool,
+) -> wgpu::BindGroupLayoutEntry {
+    match format.texels() {
+        boxforge::emit::Texels::Float => texture_3d_entry(binding, visibility, filterable),
+        boxforge::emit::Texels::U8x4 => wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility,
+            ty: wgpu::BindingType::Texture {
+                sample_type: wgpu::TextureSampleType::Uint,
+                view_dimension: wgpu::TextureViewDimension::D3,
+                multisampled: false,
+            },
+            count: None,
+        },
+    }
+}
+
 /// A filtering sampler binding.
 pub fn sampler_entry(binding: u32, visibility: wgpu::ShaderStages) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {

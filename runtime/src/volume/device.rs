@@ -1,6 +1,6 @@
 //! Lattice samples on the device, in the layout the emitted `<f>_fetch` reads.
 
-use crate::gpu::binding::{linear_sampler, sampler_entry, texture_3d_entry};
+use crate::gpu::binding::{linear_sampler, sampler_entry, samples_texture_entry};
 use crate::gpu::{Gpu, GpuError};
 use crate::volume::{BrickShape, LatticeVolume, SampleFormat, VolumeError};
 use boxforge::emit::{Layout, SampleMap};
@@ -107,8 +107,8 @@ impl DeviceVolume {
             Layout::Embedded => {
                 crate::limits::check_volume_limits(v.dims, v.dims, layout, &gpu.limits())
                     .map_err(|e| GpuError::Runtime(e.to_string()))?;
-                let bytes = format.encode(&v.data, map).map_err(runtime)?;
-                let size = v.dims.map(|n| n as u32);
+                let bytes = format.texture_rows(format.encode(&v.data, map).map_err(runtime)?, v.dims[0]);
+                let size = format.texture_size(v.dims);
                 dv.texture_view = Some(texture_3d(gpu, "embedded samples", size, format.texture_format(), &bytes)?);
                 dv.bytes = bytes.len();
             }
@@ -116,8 +116,8 @@ impl DeviceVolume {
                 let p = v.packed().map_err(runtime)?;
                 crate::limits::check_volume_limits(v.dims, p.texture, layout, &gpu.limits())
                     .map_err(|e| GpuError::Runtime(e.to_string()))?;
-                let bytes = format.encode(&p.words, map).map_err(runtime)?;
-                let size = p.texture.map(|n| n as u32);
+                let bytes = format.texture_rows(format.encode(&p.words, map).map_err(runtime)?, p.texture[0]);
+                let size = format.texture_size(p.texture);
                 dv.texture_view = Some(texture_3d(gpu, "packed samples", size, format.texture_format(), &bytes)?);
                 dv.buffers.push(gpu.uniform_buffer("packed grid", bytemuck::cast_slice(&p.grid)));
                 dv.bytes = bytes.len();
@@ -132,8 +132,8 @@ impl DeviceVolume {
                     v.bricked_packed(shape, max)
                 }
                 .map_err(runtime)?;
-                let bytes = format.encode(&b.pool, map).map_err(runtime)?;
-                let size = b.pool_size().map(|n| n as u32);
+                let bytes = format.texture_rows(format.encode(&b.pool, map).map_err(runtime)?, b.pool_size()[0]);
+                let size = format.texture_size(b.pool_size());
                 dv.texture_view = Some(texture_3d(gpu, "brick pool", size, format.texture_format(), &bytes)?);
                 let pages = b.bricks.map(|n| n as u32);
                 dv.pages_view = Some(texture_3d(
@@ -182,6 +182,7 @@ impl DeviceVolume {
         boxforge::emit::EmitOptions {
             layout: self.layout,
             samples: self.map,
+            texels: self.format.texels(),
             command: command.into(),
             ..Default::default()
         }
@@ -214,7 +215,7 @@ impl DeviceVolume {
             },
             count: None,
         };
-        let mut e = vec![texture_3d_entry(first, visibility, self.filtered())];
+        let mut e = vec![samples_texture_entry(first, visibility, self.format, self.filtered())];
         match self.layout {
             Layout::Embedded => {}
             Layout::Packed => e.push(uniform(first + 1)),

@@ -4,7 +4,7 @@
 //! emitted module).
 
 use super::VolumeError;
-use boxforge::emit::SampleMap;
+use boxforge::emit::{SampleMap, Texels};
 
 /// How samples are stored on the device.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -17,7 +17,10 @@ pub enum SampleFormat {
     /// 16-bit normalized (R16Unorm; needs TEXTURE_FORMAT_16BIT_NORM): 65536
     /// levels over the data range.
     U16,
-    /// 8-bit normalized (R8Unorm): 256 levels over the data range.
+    /// 8 bits: 256 levels over the data range, four samples per R32Uint
+    /// texel along x (the module reads them as [`Texels::U8x4`]: on
+    /// llvmpipe an 8-bit texel fetch loads lane by lane, a 32-bit one is a
+    /// vector gather).
     U8,
 }
 
@@ -49,14 +52,60 @@ impl SampleFormat {
         }
     }
 
-    /// The texture format (every one reads as `texture_3d<f32>` in WGSL).
+    /// The texture format (all but u8 read as `texture_3d<f32>` in WGSL;
+    /// u8 as `texture_3d<u32>`, four samples a texel).
     pub fn texture_format(self) -> wgpu::TextureFormat {
         match self {
             SampleFormat::F32 => wgpu::TextureFormat::R32Float,
             SampleFormat::F16 => wgpu::TextureFormat::R16Float,
             SampleFormat::U16 => wgpu::TextureFormat::R16Unorm,
-            SampleFormat::U8 => wgpu::TextureFormat::R8Unorm,
+            SampleFormat::U8 => wgpu::TextureFormat::R32Uint,
         }
+    }
+
+    /// What the emitted module's texels hold for this format.
+    pub fn texels(self) -> Texels {
+        match self {
+            SampleFormat::U8 => Texels::U8x4,
+            _ => Texels::Float,
+        }
+    }
+
+    /// Samples per texel along x (4 for u8, 1 otherwise).
+    pub fn per_texel(self) -> usize {
+        match self.texels() {
+            Texels::U8x4 => 4,
+            Texels::Float => 1,
+        }
+    }
+
+    /// The texture extent holding `size` samples per axis.
+    pub fn texture_size(self, size: [usize; 3]) -> [u32; 3] {
+        [size[0].div_ceil(self.per_texel()) as u32, size[1] as u32, size[2] as u32]
+    }
+
+    /// Bytes of one texture row holding `width` samples.
+    pub fn row_bytes(self, width: usize) -> usize {
+        width.next_multiple_of(self.per_texel()) * self.bytes()
+    }
+
+    /// Stored bytes (rows of `width` samples, x fastest) laid out for a
+    /// texture of [`SampleFormat::texture_size`]: u8 rows padded to whole
+    /// words by repeating each row's last sample, so that a fetch clamped to
+    /// the texture's last word reads what a fetch clamped to the row's last
+    /// sample would. Other formats unchanged.
+    pub fn texture_rows(self, stored: Vec<u8>, width: usize) -> Vec<u8> {
+        let (row, padded) = (width * self.bytes(), self.row_bytes(width));
+        if row == padded || row == 0 {
+            return stored;
+        }
+        let mut out = Vec::with_capacity(stored.len() / row * padded);
+        for r in stored.chunks(row) {
+            out.extend_from_slice(r);
+            let last = *r.last().expect("rows are not empty");
+            out.resize(out.len() + padded - r.len(), last);
+        }
+        out
     }
 
     /// The largest error of one stored sample against its value, for data in
@@ -87,10 +136,12 @@ impl SampleFormat {
         if matches!(self, SampleFormat::F32 | SampleFormat::F16) {
             return SampleMap::IDENTITY;
         }
-        // Unorm texels read as k / (levels - 1) in [0, 1]: the map spans the range.
+        // Unorm texels (u16) read as k / (levels - 1) in [0, 1]: the map
+        // spans the range; u8 words read as the integer k: a level's step.
         let span = hi - lo;
+        let levels = if self == SampleFormat::U8 { 255.0 } else { 1.0 };
         if span > 0.0 && span.is_finite() {
-            SampleMap { scale: span, offset: lo }
+            SampleMap { scale: span / levels, offset: lo }
         } else {
             SampleMap { scale: 1.0, offset: if lo.is_finite() { lo } else { 0.0 } }
         }
@@ -132,7 +183,7 @@ impl SampleFormat {
                 values.iter().flat_map(|&v| q(v).to_le_bytes()).collect()
             }
             SampleFormat::U8 => {
-                values.iter().map(|&v| (((v - map.offset) / map.scale).clamp(0.0, 1.0) * 255.0).round() as u8).collect()
+                values.iter().map(|&v| ((v - map.offset) / map.scale).clamp(0.0, 255.0).round() as u8).collect()
             }
         })
     }
@@ -146,7 +197,7 @@ impl SampleFormat {
                 .chunks(2)
                 .map(|c| map.offset + map.scale * (u16::from_le_bytes([c[0], c[1]]) as f32 / 65535.0))
                 .collect(),
-            SampleFormat::U8 => bytes.iter().map(|&b| map.offset + map.scale * (b as f32 / 255.0)).collect(),
+            SampleFormat::U8 => bytes.iter().map(|&b| map.offset + map.scale * b as f32).collect(),
         }
     }
 }
@@ -180,6 +231,19 @@ mod tests {
         let e = SampleFormat::U8.encode(&[1.0, f32::NAN], SampleMap::IDENTITY).unwrap_err();
         assert!(e.to_string().contains("NaN"), "{e}");
         assert!(SampleFormat::F32.check_values(&[f32::NAN, 1e30]).is_ok(), "f32 stores anything");
+    }
+
+    #[test]
+    fn u8_rows_are_padded_to_whole_words_with_their_last_sample() {
+        let f = SampleFormat::U8;
+        assert_eq!(f.texture_size([5, 2, 1]), [2, 2, 1]);
+        assert_eq!(f.row_bytes(5), 8);
+        let rows = f.texture_rows(vec![1, 2, 3, 4, 5, 6, 7, 8, 9, 10], 5);
+        assert_eq!(rows, vec![1, 2, 3, 4, 5, 5, 5, 5, 6, 7, 8, 9, 10, 10, 10, 10]);
+        // Whole words and the other formats are left as they are.
+        assert_eq!(f.texture_rows(vec![1, 2, 3, 4], 4), vec![1, 2, 3, 4]);
+        assert_eq!(SampleFormat::F32.texture_size([5, 2, 1]), [5, 2, 1]);
+        assert_eq!(SampleFormat::F16.texture_rows(vec![1, 2, 3, 4], 2), vec![1, 2, 3, 4]);
     }
 
     #[test]

@@ -267,3 +267,44 @@ fn four_d_fetch_reads_one_storage_buffer() {
     }
     assert!(checked >= 12, "{checked}");
 }
+
+/// u8x4 modules (four u8 samples per r32uint texel) in every 2D/3D layout:
+/// valid, branch-free, one texel load per fetch (plus the page in bricks),
+/// named apart from the float modules; refused with linear fetches and in 4D.
+#[test]
+fn u8x4_modules_are_branch_free_with_one_word_load_per_fetch() {
+    use boxforge::emit::{FetchMode, Layout, Texels};
+    for name in ["bcc7", "cc_tricubic", "fcc6", "courant"] {
+        let d = boxforge_tests::derive(name);
+        for layout in default_layouts(d.facts.dim) {
+            let e = emit(&d, &EmitOptions { layout, texels: Texels::U8x4, ..EmitOptions::default() }).unwrap();
+            assert!(e.file_name.ends_with(".u8x4.wgsl"), "{}", e.file_name);
+            assert!(e.source.contains("<u32>;") && e.source.contains(&format!("fn {name}_unpack(")), "{}", e.file_name);
+            let r = validate_wgsl(&e.source, &e.file_name);
+            assert!(r.valid, "{}: {}", e.file_name, r.error.unwrap_or_default());
+            let required = [format!("{name}_eval"), format!("{name}_eval_grad")];
+            check_branch_free(&r, &required.iter().map(String::as_str).collect::<Vec<_>>())
+                .unwrap_or_else(|err| panic!("{}: {err}", e.file_name));
+            let pages = usize::from(layout.is_bricked());
+            for f in &required {
+                assert_eq!(
+                    r.function(f).unwrap().total_loads,
+                    e.stats.fetches_per_eval + pages,
+                    "{}: {f}",
+                    e.file_name
+                );
+            }
+            // The float module of the same layout reads f32 texels, as before.
+            let float = emit(&d, &EmitOptions { layout, ..EmitOptions::default() }).unwrap();
+            assert!(!float.source.contains("_unpack(") && !float.file_name.contains("u8x4"));
+        }
+    }
+    let d = boxforge_tests::derive("cc_tricubic");
+    let err = emit(&d, &EmitOptions { texels: Texels::U8x4, fetch: FetchMode::Linear, ..EmitOptions::default() })
+        .unwrap_err();
+    assert!(err.to_string().contains("u8x4"), "{err}");
+    let d4 = boxforge_tests::derive("z4_linear");
+    let err = emit(&d4, &EmitOptions { layout: Layout::Embedded, texels: Texels::U8x4, ..EmitOptions::default() })
+        .unwrap_err();
+    assert!(err.to_string().contains("4D"), "{err}");
+}

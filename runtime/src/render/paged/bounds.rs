@@ -7,7 +7,7 @@
 //! `<f>_minmax_main` kernel over the row's blocks: the same kernel over the
 //! same samples as in core, so the bounds are the in-core bounds.
 
-use crate::gpu::binding::{storage_entry, texture_3d_entry, uniform_entry};
+use crate::gpu::binding::{samples_texture_entry, storage_entry, uniform_entry};
 use crate::gpu::{Gpu, GpuError};
 use crate::volume::{BrickSource, SampleFormat};
 use boxforge::derive::Derivation;
@@ -51,6 +51,7 @@ pub fn brick_row_bounds(
         &EmitOptions {
             layout: Layout::Embedded,
             samples: map,
+            texels: format.texels(),
             command: "boxforge render (bricked bounds)".into(),
             ..Default::default()
         },
@@ -58,7 +59,11 @@ pub fn brick_row_bounds(
     .map_err(|e| GpuError::Runtime(e.to_string()))?;
     let shader = gpu.compile(&module.file_name, &module.source)?;
     let dev = &gpu.device;
-    let entries = [texture_3d_entry(0, wgpu::ShaderStages::COMPUTE, false), storage_entry(1, false), uniform_entry(2)];
+    let entries = [
+        samples_texture_entry(0, wgpu::ShaderStages::COMPUTE, format, false),
+        storage_entry(1, false),
+        uniform_entry(2),
+    ];
     let bgl =
         dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("row bounds"), entries: &entries });
     let pipeline = gpu.pipeline("row bounds", &shader, &[&bgl], &format!("{name}_minmax_main"))?;
@@ -86,7 +91,7 @@ pub fn brick_row_bounds(
     // One texture, output and job buffer for every slab (a smaller last slab
     // uses a corner of them: its stencils never reach past what it writes).
     let tex =
-        gpu.sampled_texture_3d("brick slab", [width as u32, height as u32, depth as u32], format.texture_format());
+        gpu.sampled_texture_3d("brick slab", format.texture_size([width, height, depth]), format.texture_format());
     let view = tex.create_view(&Default::default());
     let out = gpu.storage_buffer("slab bounds", &vec![0u8; row_len * rows_y * layers_z * per_brick.pow(3) * 8], true);
     let job_buf = gpu.uniform_buffer("slab job", &[0u8; 32]);
@@ -120,7 +125,7 @@ pub fn brick_row_bounds(
                         source.read_box(lo, size, &mut values).map_err(runtime)?;
                         // The samples the renderer will read, in its texture
                         // format (the device's conversion of stored texels is the same).
-                        let stored = format.encode(&values, map).map_err(runtime)?;
+                        let stored = format.texture_rows(format.encode(&values, map).map_err(runtime)?, size[0]);
                         gpu.queue.write_texture(
                             wgpu::TexelCopyTextureInfo {
                                 texture: &tex,
@@ -135,11 +140,11 @@ pub fn brick_row_bounds(
                             &stored,
                             wgpu::TexelCopyBufferLayout {
                                 offset: 0,
-                                bytes_per_row: Some((size[0] * format.bytes()) as u32),
+                                bytes_per_row: Some(format.row_bytes(size[0]) as u32),
                                 rows_per_image: Some(size[1] as u32),
                             },
                             wgpu::Extent3d {
-                                width: size[0] as u32,
+                                width: format.texture_size(size)[0],
                                 height: size[1] as u32,
                                 depth_or_array_layers: size[2] as u32,
                             },

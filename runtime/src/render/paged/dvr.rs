@@ -76,6 +76,7 @@ impl PagedDvrRenderer {
         let module = EmitOptions {
             layout: Layout::Bricked,
             samples: pool.map,
+            texels: pool.format.texels(),
             command: "boxforge_runtime::render::paged::PagedDvrRenderer".into(),
             kernels: false,
             ..Default::default()

@@ -67,6 +67,7 @@ impl PagedIsoRenderer {
         let module = EmitOptions {
             layout: Layout::Bricked,
             samples: pool.map,
+            texels: pool.format.texels(),
             command: "boxforge_runtime::render::paged::PagedIsoRenderer".into(),
             kernels: false,
             ..Default::default()

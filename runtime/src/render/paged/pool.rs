@@ -32,7 +32,7 @@ pub(crate) struct BrickPool {
     pub dims: [usize; 3],
     pub bricks: [usize; 3],
     pub map: SampleMap,
-    format: SampleFormat,
+    pub format: SampleFormat,
     /// The block edge the bounds were computed for (the budget may have
     /// coarsened the requested one).
     pub block: usize,
@@ -104,12 +104,17 @@ impl BrickPool {
                 options.brick
             )));
         }
-        let shape = BrickShape { edge: options.brick, halo: boxforge::emit::bricks::brick_halo(d) };
+        let format = options.format;
+        // A slot is uploaded on its own: with four u8 samples a texel its
+        // edge must be whole texels, so the halo grows (by at most 2) until
+        // it is (the fetches then read a little less far than the slot holds).
+        let reach = boxforge::emit::bricks::brick_halo(d);
+        let halo = (reach..).find(|h| (options.brick + 2 * h).is_multiple_of(format.per_texel())).unwrap_or(reach);
+        let shape = BrickShape { edge: options.brick, halo };
         let slot = shape.slot();
         let bricks = dims.map(|n| n.div_ceil(shape.edge));
         let nbricks = bricks.iter().product::<usize>();
         let nblocks: usize = dims.iter().map(|n| n.div_ceil(block)).product();
-        let format = options.format;
         let slot_bytes = (slot * slot * slot * format.bytes()) as u64;
         let words = nbricks.div_ceil(32) + 1;
         // Everything but the pool: page table, request bits, the renderer's
@@ -198,7 +203,11 @@ impl BrickPool {
         trace_memory("bounds");
         let dev = &gpu.device;
         let pool_size = slots.map(|s| (s * slot) as u32);
-        let pool = gpu.sampled_texture_3d("brick pool", pool_size, format.texture_format());
+        let pool = gpu.sampled_texture_3d(
+            "brick pool",
+            format.texture_size(pool_size.map(|n| n as usize)),
+            format.texture_format(),
+        );
         let pages = gpu.sampled_texture_3d("page table", bricks.map(|n| n as u32), wgpu::TextureFormat::R32Uint);
         let uniform: [i32; 8] = [
             dims[0] as i32,
@@ -214,7 +223,7 @@ impl BrickPool {
         let samples_layout = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("paged samples"),
             entries: &[
-                crate::gpu::binding::texture_3d_entry(0, wgpu::ShaderStages::COMPUTE, false),
+                crate::gpu::binding::samples_texture_entry(0, wgpu::ShaderStages::COMPUTE, format, false),
                 crate::gpu::binding::uniform_entry(1),
                 crate::gpu::binding::texture_entry(2),
             ],
@@ -299,21 +308,21 @@ impl BrickPool {
         source.read_box(lo, [s, s, s], scratch).map_err(|e| fail(e.to_string()))?;
         let bytes = self.format.encode(scratch, self.map).map_err(|e| fail(e.to_string()))?;
         let sc = self.cache.slot_coords(slot);
-        let fb = self.format.bytes() as u32;
+        let per = self.format.per_texel();
         self.gpu.queue.write_texture(
             wgpu::TexelCopyTextureInfo {
                 texture: &self._pool,
                 mip_level: 0,
-                origin: wgpu::Origin3d { x: (sc[0] * s) as u32, y: (sc[1] * s) as u32, z: (sc[2] * s) as u32 },
+                origin: wgpu::Origin3d { x: (sc[0] * s / per) as u32, y: (sc[1] * s) as u32, z: (sc[2] * s) as u32 },
                 aspect: wgpu::TextureAspect::All,
             },
             &bytes,
             wgpu::TexelCopyBufferLayout {
                 offset: 0,
-                bytes_per_row: Some(s as u32 * fb),
+                bytes_per_row: Some(self.format.row_bytes(s) as u32),
                 rows_per_image: Some(s as u32),
             },
-            wgpu::Extent3d { width: s as u32, height: s as u32, depth_or_array_layers: s as u32 },
+            wgpu::Extent3d { width: (s / per) as u32, height: s as u32, depth_or_array_layers: s as u32 },
         );
         Ok(())
     }
