@@ -371,8 +371,13 @@ impl BrickPool {
                 )));
             }
             // Uploads go through staging memory until their copy has run:
-            // flush every few MiB, so the staging never holds a pass's bricks.
-            let per_flush = ((4 << 20) / (self.shape.slot().pow(3) * self.format.bytes())).max(1);
+            // flush every 2 MiB of it, so the staging never holds a pass's
+            // bricks. wgpu stages each row of a texture write padded to
+            // COPY_BYTES_PER_ROW_ALIGNMENT (256 bytes): a slot row of 40
+            // u8 samples takes 256 bytes there, so count staged bytes.
+            let s = self.shape.slot();
+            let staged = s * s * self.format.row_bytes(s).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT as usize);
+            let per_flush = ((2 << 20) / staged).max(1);
             for (i, (k, slot)) in admitted.into_iter().enumerate() {
                 self.upload(source, k, slot, &mut scratch)?;
                 if (i + 1) % per_flush == 0 {
