@@ -1,7 +1,7 @@
 //! Quasi-interpolation prefilter on the device with the emitted
 //! `<f>_prefilter_main` kernel, and the same convolution on the CPU.
 
-use crate::gpu::binding::{storage_entry, uniform_entry};
+use crate::gpu::binding::storage_entry;
 use crate::gpu::{Gpu, GpuError};
 use crate::volume::LatticeVolume;
 use crate::volume::{DeviceVolume, VolumeOptions};
@@ -74,7 +74,7 @@ pub fn prefilter_gpu_with(
     let out_binding = layout.sample_bindings();
     let mut entries = dv.layout_entries(0, wgpu::ShaderStages::COMPUTE);
     entries.push(storage_entry(out_binding, false));
-    entries.push(uniform_entry(out_binding + 1));
+    entries.push(gpu.params_entry(out_binding + 1));
     let bgl =
         dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("prefilter"), entries: &entries });
     let n = vol.data.len();
@@ -134,7 +134,7 @@ pub fn prefilter_to_file(
     let entries = [
         crate::gpu::binding::texture_3d_entry(0, wgpu::ShaderStages::COMPUTE, false),
         storage_entry(1, false),
-        uniform_entry(2),
+        gpu.params_entry(2),
     ];
     let bgl = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("prefilter slab"),

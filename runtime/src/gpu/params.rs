@@ -1,8 +1,9 @@
 //! Where the runtime's parameter blocks live: the uniform blocks of its own
 //! templates (the ray caster's `_rc`, DVR's `_dv`, the host depth's
-//! `_host`, PERM's `_pm` and `_pb`; never the emitted module's own
-//! bindings, which are its API) are uniform buffers, except on a CPU
-//! adapter, where they are read-only storage buffers.
+//! `_host`, PERM's `_pm` and `_pb`) and the emitted kernels' job (`_job`,
+//! which the runtime binds itself; the module's other bindings, its API,
+//! stay as emitted) are uniform buffers, except on a CPU adapter, where
+//! they are read-only storage buffers.
 //!
 //! Why: lavapipe (llvmpipe) inlines the values of small uniform blocks that
 //! steer loops and branches into a new shader variant, compiled at a
@@ -10,12 +11,15 @@
 //! about 3 MB (bcc7, cc_tricubic; 0.6 MB for cc_trilinear) to the
 //! process's resident memory without end, and a 64x64 cc_tricubic frame
 //! took 22 ms against 11 ms with the same block in a storage buffer. A
-//! storage buffer is never inlined. On a GPU a uniform block is the fast
+//! storage buffer is never inlined. The kernels' job steers their bounds
+//! check: each slab of the bricked bounds (`render::paged::bounds`) kept
+//! about 1.5 MB the same way (16 slabs of a 2304x256x256 volume: 24 MB,
+//! measured with BOXFORGE_MEMORY_TRACE). On a GPU a uniform block is the fast
 //! path for parameters every invocation reads, so it stays there.
 
 /// The parameter blocks of the runtime's templates, by the suffix of their
 /// variable names (`<filter>_rc`, ...).
-pub const PARAM_BLOCKS: [&str; 5] = ["_rc", "_dv", "_host", "_pm", "_pb"];
+pub const PARAM_BLOCKS: [&str; 6] = ["_rc", "_dv", "_host", "_pm", "_pb", "_job"];
 
 /// `source` with the declarations of the parameter blocks moved from the
 /// uniform to the read-only storage address space (the struct layout is the
@@ -47,11 +51,13 @@ mod tests {
         let src = "@group(1) @binding(0) var<uniform> bcc7_rc: bcc7_RayParams;\n\
                    @group(0) @binding(1) var<uniform> bcc7_grid: bcc7_Grid;\n\
                    @group(1) @binding(6) var<uniform> bcc7_host: bcc7_HostDepth;\n\
+                   @group(0) @binding(2) var<uniform> bcc7_job: bcc7_Job;\n\
                    // var<uniform> bcc7_dv is in a comment\n";
         let out = in_storage(src);
         assert!(out.contains("var<storage, read> bcc7_rc: bcc7_RayParams;"), "{out}");
         assert!(out.contains("var<storage, read> bcc7_host: bcc7_HostDepth;"), "{out}");
         assert!(out.contains("var<uniform> bcc7_grid: bcc7_Grid;"), "the module's own binding stays: {out}");
+        assert!(out.contains("var<storage, read> bcc7_job: bcc7_Job;"), "the kernels' job moves: {out}");
         assert_eq!(out.lines().count(), src.lines().count());
     }
 

@@ -3,7 +3,7 @@
 //! `<f>_minmax_main` kernel (the BB coefficients' hull), computed once per
 //! volume and uploaded for the ray casters.
 
-use crate::gpu::binding::{storage_entry, uniform_entry};
+use crate::gpu::binding::storage_entry;
 use crate::gpu::{Gpu, GpuError};
 use crate::volume::DeviceVolume;
 
@@ -36,7 +36,7 @@ pub fn block_bounds(
     let out_binding = dv.layout.sample_bindings();
     let mut entries0 = dv.layout_entries(0, wgpu::ShaderStages::COMPUTE);
     entries0.push(storage_entry(out_binding, false));
-    entries0.push(uniform_entry(out_binding + 1));
+    entries0.push(gpu.params_entry(out_binding + 1));
     let bgl_mm =
         dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("minmax"), entries: &entries0 });
     let minmax = gpu.pipeline("minmax", shader, &[&bgl_mm], &format!("{name}_minmax_main"))?;

@@ -7,7 +7,7 @@
 //! `<f>_minmax_main` kernel over the row's blocks: the same kernel over the
 //! same samples as in core, so the bounds are the in-core bounds.
 
-use crate::gpu::binding::{samples_texture_entry, storage_entry, uniform_entry};
+use crate::gpu::binding::{samples_texture_entry, storage_entry};
 use crate::gpu::{Gpu, GpuError};
 use crate::volume::{BrickSource, SampleFormat};
 use boxforge::derive::Derivation;
@@ -62,7 +62,7 @@ pub fn brick_row_bounds(
     let entries = [
         samples_texture_entry(0, wgpu::ShaderStages::COMPUTE, format, false),
         storage_entry(1, false),
-        uniform_entry(2),
+        gpu.params_entry(2),
     ];
     let bgl =
         dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("row bounds"), entries: &entries });
@@ -162,6 +162,7 @@ pub fn brick_row_bounds(
                 let job: [i32; 8] = [h, h, h, 0, count[0] as i32, count[1] as i32, count[2] as i32, block as i32];
                 gpu.queue.write_buffer(&job_buf, 0, bytemuck::cast_slice(&job));
                 gpu.dispatch("slab bounds", &pipeline, &[&bg], ((total as u32).div_ceil(64), 1, 1))?;
+                super::pool::trace_memory("slab bounded");
                 let raw: Vec<f32> = bytemuck::cast_slice(&gpu.read_buffer(&out)?[..total * 8]).to_vec();
                 for bz in 0..count[2] {
                     for by in 0..count[1] {

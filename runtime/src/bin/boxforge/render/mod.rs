@@ -437,6 +437,8 @@ pub fn run(a: RenderArgs) -> Result<(), Failure> {
                 paged::Paged::Dvr(tf.table(), look, o)
             }
         };
+        // Before the device starts its threads (see the function's doc).
+        boxforge_runtime::memory::one_heap_arena();
         let gpu = Gpu::new(a.adapter.as_deref()).map_err(|e| Failure(e.to_string()))?;
         request::check_image_limits(size, &gpu.limits())?;
         return paged::render(&gpu, &d, source.as_ref(), options, what, &a.out, a.stats_json);
