@@ -27,16 +27,21 @@ pub fn samples_texture_entry(
 ) -> wgpu::BindGroupLayoutEntry {
     match format.texels() {
         boxforge::emit::Texels::Float => texture_3d_entry(binding, visibility, filterable),
-        boxforge::emit::Texels::U8x4 => wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility,
-            ty: wgpu::BindingType::Texture {
-                sample_type: wgpu::TextureSampleType::Uint,
-                view_dimension: wgpu::TextureViewDimension::D3,
-                multisampled: false,
-            },
-            count: None,
+        boxforge::emit::Texels::U8x4 => uint_texture_3d_entry(binding, visibility),
+    }
+}
+
+/// A `texture_3d<u32>` binding (read with textureLoad): page tables, u8 words.
+pub fn uint_texture_3d_entry(binding: u32, visibility: wgpu::ShaderStages) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility,
+        ty: wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Uint,
+            view_dimension: wgpu::TextureViewDimension::D3,
+            multisampled: false,
         },
+        count: None,
     }
 }
 
@@ -93,16 +98,7 @@ pub fn uniform_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
 
 /// A compute-stage `texture_3d<u32>` binding (read with textureLoad).
 pub fn texture_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Texture {
-            sample_type: wgpu::TextureSampleType::Uint,
-            view_dimension: wgpu::TextureViewDimension::D3,
-            multisampled: false,
-        },
-        count: None,
-    }
+    uint_texture_3d_entry(binding, wgpu::ShaderStages::COMPUTE)
 }
 
 /// A compute-stage `texture_depth_2d` binding (a host's depth buffer, read

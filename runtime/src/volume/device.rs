@@ -1,6 +1,6 @@
 //! Lattice samples on the device, in the layout the emitted `<f>_fetch` reads.
 
-use crate::gpu::binding::{linear_sampler, sampler_entry, samples_texture_entry};
+use crate::gpu::binding::{linear_sampler, sampler_entry, samples_texture_entry, uint_texture_3d_entry};
 use crate::gpu::{Gpu, GpuError};
 use crate::volume::{BrickShape, LatticeVolume, SampleFormat, VolumeError};
 use boxforge::emit::{Layout, SampleMap};
@@ -221,16 +221,7 @@ impl DeviceVolume {
             Layout::Packed => e.push(uniform(first + 1)),
             Layout::Bricked | Layout::BrickedPacked => {
                 e.push(uniform(first + 1));
-                e.push(wgpu::BindGroupLayoutEntry {
-                    binding: first + 2,
-                    visibility,
-                    ty: wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Uint,
-                        view_dimension: wgpu::TextureViewDimension::D3,
-                        multisampled: false,
-                    },
-                    count: None,
-                });
+                e.push(uint_texture_3d_entry(first + 2, visibility));
             }
         }
         if self.filtered() {
