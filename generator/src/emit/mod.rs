@@ -177,24 +177,6 @@ pub enum Texels {
     U8x4,
 }
 
-impl Texels {
-    /// The name used on the command line (and in reports).
-    pub fn name(self) -> &'static str {
-        match self {
-            Texels::Float => "float",
-            Texels::U8x4 => "u8x4",
-        }
-    }
-    /// The value named `s` (see [`name`](Self::name)); None for any other string.
-    pub fn parse(s: &str) -> Option<Texels> {
-        match s {
-            "float" => Some(Texels::Float),
-            "u8x4" => Some(Texels::U8x4),
-            _ => None,
-        }
-    }
-}
-
 /// The affine map from stored samples to values: value = offset + scale *
 /// stored. A box spline is linear in its samples and its weights sum to 1,
 /// so the module applies the map once per evaluation (value: offset +
@@ -439,13 +421,13 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
             return Err(refuse("hardware-filtered (linear) fetch", "use exact fetches (--fetch exact)"));
         }
         if opts.texels != Texels::Float {
-            return Err(refuse("packed u8 texels", "store the samples as f32 (--texels float)"));
+            return Err(refuse("u8x4 texels", "emit with Texels::Float and store the samples as f32"));
         }
     }
     if opts.texels == Texels::U8x4 && opts.fetch == FetchMode::Linear {
         return Err(Error::Unsupported {
             origin: format!("filter {}", d.filter.name),
-            message: "hardware-filtered (linear) fetches need a filterable texture, and u8x4 words are integers; use exact fetches or --texels float".into(),
+            message: "hardware-filtered (linear) fetches need a filterable texture, and u8x4 words are integers; use exact fetches or Texels::Float".into(),
         });
     }
     let polynomials = d.polynomials();

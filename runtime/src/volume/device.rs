@@ -107,7 +107,7 @@ impl DeviceVolume {
             Layout::Embedded => {
                 crate::limits::check_volume_limits(v.dims, v.dims, layout, &gpu.limits())
                     .map_err(|e| GpuError::Runtime(e.to_string()))?;
-                let bytes = format.texture_rows(format.encode(&v.data, map).map_err(runtime)?, v.dims[0]);
+                let bytes = format.encode_rows(&v.data, map, v.dims[0]).map_err(runtime)?;
                 let size = format.texture_size(v.dims);
                 dv.texture_view = Some(texture_3d(gpu, "embedded samples", size, format.texture_format(), &bytes)?);
                 dv.bytes = bytes.len();
@@ -116,7 +116,7 @@ impl DeviceVolume {
                 let p = v.packed().map_err(runtime)?;
                 crate::limits::check_volume_limits(v.dims, p.texture, layout, &gpu.limits())
                     .map_err(|e| GpuError::Runtime(e.to_string()))?;
-                let bytes = format.texture_rows(format.encode(&p.words, map).map_err(runtime)?, p.texture[0]);
+                let bytes = format.encode_rows(&p.words, map, p.texture[0]).map_err(runtime)?;
                 let size = format.texture_size(p.texture);
                 dv.texture_view = Some(texture_3d(gpu, "packed samples", size, format.texture_format(), &bytes)?);
                 dv.buffers.push(gpu.uniform_buffer("packed grid", bytemuck::cast_slice(&p.grid)));
@@ -132,7 +132,7 @@ impl DeviceVolume {
                     v.bricked_packed(shape, max)
                 }
                 .map_err(runtime)?;
-                let bytes = format.texture_rows(format.encode(&b.pool, map).map_err(runtime)?, b.pool_size()[0]);
+                let bytes = format.encode_rows(&b.pool, map, b.pool_size()[0]).map_err(runtime)?;
                 let size = format.texture_size(b.pool_size());
                 dv.texture_view = Some(texture_3d(gpu, "brick pool", size, format.texture_format(), &bytes)?);
                 let pages = b.bricks.map(|n| n as u32);

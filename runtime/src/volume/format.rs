@@ -89,12 +89,18 @@ impl SampleFormat {
         width.next_multiple_of(self.per_texel()) * self.bytes()
     }
 
-    /// Stored bytes (rows of `width` samples, x fastest) laid out for a
-    /// texture of [`SampleFormat::texture_size`]: u8 rows padded to whole
-    /// words by repeating each row's last sample, so that a fetch clamped to
-    /// the texture's last word reads what a fetch clamped to the row's last
+    /// [`SampleFormat::encode`] of `values` (rows of `width` samples, x
+    /// fastest), laid out for a texture of [`SampleFormat::texture_size`].
+    pub fn encode_rows(self, values: &[f32], map: SampleMap, width: usize) -> Result<Vec<u8>, VolumeError> {
+        Ok(self.texture_rows(self.encode(values, map)?, width))
+    }
+
+    /// Stored bytes (rows of `width` samples) laid out for a texture of
+    /// [`SampleFormat::texture_size`]: u8 rows padded to whole words by
+    /// repeating each row's last sample, so that a fetch clamped to the
+    /// texture's last word reads what a fetch clamped to the row's last
     /// sample would. Other formats unchanged.
-    pub fn texture_rows(self, stored: Vec<u8>, width: usize) -> Vec<u8> {
+    fn texture_rows(self, stored: Vec<u8>, width: usize) -> Vec<u8> {
         let (row, padded) = (width * self.bytes(), self.row_bytes(width));
         if row == padded || row == 0 {
             return stored;

@@ -125,7 +125,7 @@ pub fn brick_row_bounds(
                         source.read_box(lo, size, &mut values).map_err(runtime)?;
                         // The samples the renderer will read, in its texture
                         // format (the device's conversion of stored texels is the same).
-                        let stored = format.texture_rows(format.encode(&values, map).map_err(runtime)?, size[0]);
+                        let stored = format.encode_rows(&values, map, size[0]).map_err(runtime)?;
                         gpu.queue.write_texture(
                             wgpu::TexelCopyTextureInfo {
                                 texture: &tex,

@@ -306,7 +306,7 @@ impl BrickPool {
         let lo = kk.map(|c| c as i64 * b - h);
         scratch.resize(s * s * s, 0.0);
         source.read_box(lo, [s, s, s], scratch).map_err(|e| fail(e.to_string()))?;
-        let bytes = self.format.encode(scratch, self.map).map_err(|e| fail(e.to_string()))?;
+        let bytes = self.format.encode_rows(scratch, self.map, s).map_err(|e| fail(e.to_string()))?;
         let sc = self.cache.slot_coords(slot);
         let per = self.format.per_texel();
         self.gpu.queue.write_texture(
