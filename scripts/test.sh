@@ -1,11 +1,13 @@
 #!/usr/bin/env bash
-# The whole test suite: formatting, clippy and rustdoc without warnings,
-# unit tests, integration tests, property tests, CLI tests and the browser
-# test for every crate of the workspace. Prints the time of each phase.
+# The whole test suite: formatting, packaging, clippy and rustdoc without
+# warnings, every crate with no default features and with each feature
+# alone, unit tests, integration tests, property tests, CLI tests, the
+# browser test, and examples/embed as a package of its own. Prints the time
+# of each phase.
 #
 #   scripts/test.sh           the whole suite (what CI runs)
 #   scripts/test.sh --quick   the inner loop: every test but the browser's,
-#                             no fmt, clippy or rustdoc
+#                             no fmt, packaging, clippy, feature builds or rustdoc
 set -euo pipefail
 cd "$(dirname "$0")/.."
 quick=false
@@ -15,6 +17,7 @@ case "${1:-}" in
     *) echo "error: unknown option '$1'; use scripts/test.sh [--quick]" >&2; exit 2 ;;
 esac
 command -v cargo >/dev/null || { echo "error: cargo not found; install Rust from https://rustup.rs" >&2; exit 2; }
+command -v python3 >/dev/null || { echo "error: python3 not found (the feature and test runners read cargo's JSON with it); install it, e.g.: sudo apt-get install -y python3" >&2; exit 2; }
 . scripts/ensure-vulkan.sh
 . scripts/ensure-compilers.sh
 start=$SECONDS
@@ -27,15 +30,21 @@ phase() {
 }
 if $quick; then
     # The browser test skips itself without Chromium (BOXFORGE_NO_BROWSER).
-    BOXFORGE_NO_BROWSER=1 phase "tests (quick)" cargo test --workspace --locked
+    export BOXFORGE_NO_BROWSER=1
 else
     . scripts/ensure-chromium.sh
     for tool in fmt clippy; do
         cargo "$tool" --version >/dev/null 2>&1 || { echo "error: cargo $tool not found; install it with: rustup component add $( [ "$tool" = fmt ] && echo rustfmt || echo clippy )" >&2; exit 2; }
     done
     phase rustfmt cargo fmt --all -- --check
+    phase packaging scripts/check-packaging.sh
     phase clippy cargo clippy --workspace --all-targets --locked -- -D warnings
+    phase features scripts/check-features.sh
     RUSTDOCFLAGS="-D warnings" phase rustdoc cargo doc --workspace --no-deps --lib --locked
-    phase tests cargo test --workspace --locked
 fi
+# examples/embed is tested on its own below: in the workspace run the
+# runtime would get the CLI's features through feature unification.
+phase "tests (build)" cargo test --workspace --exclude boxforge-embed --locked --no-run
+phase tests scripts/run-tests.py --workspace --exclude boxforge-embed
+phase "embed (own package)" cargo test --locked -p boxforge-embed
 echo "== all passed in $((SECONDS - start)) s" >&2
