@@ -232,6 +232,62 @@ fn cases(dir: &Path) -> Vec<(Vec<String>, &'static str)> {
             ]),
             "BCC and CC",
         ),
+        // Refused from the flags alone, before the volume is read (the volume is missing) or the
+        // transfer function loaded: each was refused only after them before.
+        (
+            volume(
+                p("missing.nii.gz"),
+                &["--mode", "dvr", "--tf", "marschner-lobb", "--renderer", "pt", "--format", "u8"],
+            ),
+            "--format and --layout bricked",
+        ),
+        (
+            volume(
+                p("missing.nii.gz"),
+                &["--mode", "dvr", "--tf", "marschner-lobb", "--renderer", "pt", "--layout", "bricked"],
+            ),
+            "--format and --layout bricked",
+        ),
+        (
+            args(&[
+                "render",
+                "--filter",
+                "mattausch_bilinear",
+                "--volume",
+                &p("missing.nii.gz"),
+                "--mode",
+                "dvr",
+                "--format",
+                "u16",
+                "--out",
+                &out,
+            ]),
+            "--format and --layout bricked",
+        ),
+        (render(&["--mode", "dvr", "--tf", &p("missing.json"), "--shade", "mean"]), "--shade mean"),
+        (render(&["--mode", "dvr", "--tf", &p("missing.json"), "--gpu-budget", "12parsecs"]), "--gpu-budget 12parsecs"),
+        (render(&["--cache", "lru"]), "lru"),
+        (
+            args(&["render", "--filter", "d4star8", "--volume", &p("missing.nii.gz"), "--frames", "0", "--out", &out]),
+            "--frames 0",
+        ),
+        // A 4D filter's --tf is loaded before the series (it was after it and the device), as in 3D.
+        (
+            args(&[
+                "render",
+                "--filter",
+                "d4star8",
+                "--volume",
+                &p("missing.nii.gz"),
+                "--mode",
+                "dvr",
+                "--tf",
+                &p("missing.json"),
+                "--out",
+                &out,
+            ]),
+            "missing.json",
+        ),
         // bench and demo
         (args(&["bench", "--wgsl", &p("missing.wgsl")]), "--entry"),
         (args(&["bench", "--wgsl", &p("missing.wgsl"), "--entry", "f", "--like", "bcc7"]), "cannot read"),

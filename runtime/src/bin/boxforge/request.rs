@@ -5,8 +5,11 @@
 //! passed in). The library's own checks ([`boxforge_runtime::limits`]) name
 //! no flags: [`volume_limit`] words them for the command line.
 
+use crate::render::{CacheArg, ModeArg, RendererArg};
+use boxforge::derive::Derivation;
 use boxforge::emit::Layout;
 use boxforge_runtime::limits::{self, LimitError};
+use boxforge_runtime::render::iso::Shade;
 use boxforge_runtime::render::perm::{
     formula, Counts, PermError, Quant, B_DB, B_GB, B_SB, DEFAULT_QC, MAX_BYTES, MAX_ROW,
 };
@@ -119,39 +122,82 @@ pub fn check_output_dir(dir: &std::path::Path, flag: &str) -> Result<(), String>
     check_output_file(&dir.join("probe"), flag)
 }
 
+/// The transfer function `--mode dvr` draws with.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum TfChoice {
+    /// No --tf: the default ramp over the data's range (chosen once the
+    /// volume is loaded).
+    Ramp,
+    /// `--tf NAME`: a preset or a JSON file (loaded after the checks).
+    Named(String),
+}
+
 /// `--mode` with `--tf` and `--no-preintegration` of `render`: Some(the
-/// transfer function argument, empty when none was given: the default ramp)
-/// for `--mode dvr`, None for `iso`.
-pub fn check_render_mode(mode: &str, tf: Option<&str>, no_preintegration: bool) -> Result<Option<String>, String> {
+/// transfer function) for `--mode dvr`, None for `iso`.
+pub fn check_render_mode(mode: ModeArg, tf: Option<&str>, no_preintegration: bool) -> Result<Option<TfChoice>, String> {
     match (mode, tf) {
-        ("dvr", Some(tf)) => Ok(Some(tf.to_string())),
-        // No --tf: the default ramp over the data's range (chosen once the
-        // volume is loaded).
-        ("dvr", None) => Ok(Some(String::new())),
-        (_, Some(tf)) => Err(format!("--tf {tf}: a transfer function is for --mode dvr; add --mode dvr")),
-        _ if no_preintegration => Err("--no-preintegration is for --mode dvr; add --mode dvr --tf ...".into()),
-        _ => Ok(None),
+        (ModeArg::Dvr, Some(tf)) => Ok(Some(TfChoice::Named(tf.to_string()))),
+        (ModeArg::Dvr, None) => Ok(Some(TfChoice::Ramp)),
+        (ModeArg::Iso, Some(tf)) => Err(format!("--tf {tf}: a transfer function is for --mode dvr; add --mode dvr")),
+        (ModeArg::Iso, None) if no_preintegration => {
+            Err("--no-preintegration is for --mode dvr; add --mode dvr --tf ...".into())
+        }
+        (ModeArg::Iso, None) => Ok(None),
     }
 }
 
 /// `--renderer`: true for projected tetrahedra, which need `--mode dvr`,
 /// no cache and an orthographic view.
-pub fn check_renderer(renderer: &str, mode: &str, cache: &str, perspective: bool) -> Result<bool, String> {
-    if renderer != "pt" {
+pub fn check_renderer(
+    renderer: RendererArg,
+    mode: ModeArg,
+    cache: CacheArg,
+    perspective: bool,
+) -> Result<bool, String> {
+    if renderer == RendererArg::Raycast {
         return Ok(false);
     }
-    if mode != "dvr" {
+    if mode != ModeArg::Dvr {
         return Err("--renderer pt renders volumes, not isosurfaces: add --mode dvr --tf ...".into());
     }
-    if cache != "none" {
+    if cache != CacheArg::None {
         return Err(format!(
-            "--renderer pt draws the tetrahedra directly; drop --cache {cache} (it is for the ray caster)"
+            "--renderer pt draws the tetrahedra directly; drop --cache {} (it is for the ray caster)",
+            cache.name()
         ));
     }
     if perspective {
         return Err("--renderer pt is orthographic (the back-to-front traversal is a visibility order for parallel projection only): drop --perspective".into());
     }
     Ok(true)
+}
+
+/// `--curvature-radius` and `--contour-thickness` (worded as the library's
+/// [`boxforge_runtime::render::iso::check_shade`] does, checked before the
+/// derivation).
+pub fn check_shade_numbers(shade: &Shade) -> Result<(), String> {
+    if !(shade.radius.is_finite() && shade.radius > 0.0 && shade.thickness.is_finite() && shade.thickness > 0.0) {
+        return Err(format!(
+            "curvature radius {} and contour thickness {} must be finite and > 0",
+            shade.radius, shade.thickness
+        ));
+    }
+    Ok(())
+}
+
+/// A curvature shading (`--shade ...`, `--tf-curvature`) needs second
+/// derivatives: a filter of degree 2 or more.
+pub fn check_shade_degree(d: &Derivation, shade: &Shade) -> Result<(), String> {
+    if shade.mode.needs_hessian() && d.facts.degree < 2 {
+        return Err(format!(
+            "--shade {} needs second derivatives, but {} has degree {} (its pieces are linear, its Hessian zero); \
+             use a filter of degree >= 2 such as bcc7 or cc_tricubic",
+            shade.mode.name(),
+            d.filter.name,
+            d.facts.degree
+        ));
+    }
+    Ok(())
 }
 
 /// A warning (not an error) when the transfer function is transparent over
@@ -173,20 +219,21 @@ pub fn iso_warning(iso: f32, lo: f32, hi: f32) -> Option<String> {
 
 /// `render --filter mattausch_bilinear[_spatial]`: the hand-written
 /// plane-stack schemes are ray cast in DVR only, on the embedded layout.
-pub fn check_scheme(name: &str, mode: &str, cache: &str, pt: bool, layout: &str) -> Result<(), String> {
-    if mode != "dvr" {
+pub fn check_scheme(name: &str, mode: ModeArg, cache: CacheArg, pt: bool, layout: Layout) -> Result<(), String> {
+    if mode != ModeArg::Dvr {
         return Err(format!(
-            "--filter {name} is a hand-written scheme that the DVR ray caster runs; --mode {mode} needs a catalog filter: add --mode dvr --tf ..., or pick a filter from `boxforge list`"
+            "--filter {name} is a hand-written scheme that the DVR ray caster runs; --mode {} needs a catalog filter: add --mode dvr --tf ..., or pick a filter from `boxforge list`",
+            mode.name()
         ));
     }
     if pt {
         return Err(format!("--filter {name} is ray cast; projected tetrahedra interpolate on tetrahedra: drop --renderer pt (or use --filter bcc_linear with it)"));
     }
-    if cache != "none" {
-        return Err(format!("--filter {name}: --cache {cache} caches catalog filters only; drop --cache"));
+    if cache != CacheArg::None {
+        return Err(format!("--filter {name}: --cache {} caches catalog filters only; drop --cache", cache.name()));
     }
-    if layout != "embedded" {
-        return Err(format!("--filter {name} reads the embedded layout; drop --layout {layout}"));
+    if layout != Layout::Embedded {
+        return Err(format!("--filter {name} reads the embedded layout; drop --layout {}", layout.name()));
     }
     Ok(())
 }
@@ -246,20 +293,22 @@ pub fn volume_over_limits(vol: &LatticeVolume, layout: Layout, limits: &wgpu::Li
 /// work: `None` for `--cache none`. The memory check here is the cache of
 /// a single candidate cell (a lower bound); [`boxforge_runtime::render::perm::PermCache::build`] checks the
 /// exact size once the candidates are known.
-pub fn check_cache(cache: &str, mode: &str, qc: Option<u32>, qc_grad: Option<u32>) -> Result<Option<Quant>, String> {
-    match cache {
-        "none" => {
-            return match (qc, qc_grad) {
-                (None, None) => Ok(None),
-                _ => Err("--qc and --qc-grad size the PERM cache: add --cache perm (with --mode dvr)".into()),
-            }
-        }
-        "perm" => {}
-        other => return Err(format!("--cache {other}: unknown cache; use --cache none or --cache perm")),
+pub fn check_cache(
+    cache: CacheArg,
+    mode: ModeArg,
+    qc: Option<u32>,
+    qc_grad: Option<u32>,
+) -> Result<Option<Quant>, String> {
+    if cache == CacheArg::None {
+        return match (qc, qc_grad) {
+            (None, None) => Ok(None),
+            _ => Err("--qc and --qc-grad size the PERM cache: add --cache perm (with --mode dvr)".into()),
+        };
     }
-    if mode != "dvr" {
+    if mode != ModeArg::Dvr {
         return Err(format!(
-            "--cache perm precomputes the values direct volume rendering samples; --mode {mode} has no such cache: add --mode dvr --tf ..., or drop --cache perm"
+            "--cache perm precomputes the values direct volume rendering samples; --mode {} has no such cache: add --mode dvr --tf ..., or drop --cache perm",
+            mode.name()
         ));
     }
     let n = qc.unwrap_or(DEFAULT_QC);
@@ -395,12 +444,20 @@ mod tests {
 
     #[test]
     fn dvr_flags_go_with_mode_dvr() {
-        assert_eq!(check_render_mode("iso", None, false), Ok(None));
-        assert_eq!(check_render_mode("dvr", Some("mni-tissue"), false), Ok(Some("mni-tissue".into())));
-        // No --tf: the default ramp, chosen once the data is loaded (an empty name).
-        assert_eq!(check_render_mode("dvr", None, false), Ok(Some(String::new())));
-        assert!(check_render_mode("iso", Some("x.json"), false).unwrap_err().starts_with("--tf x.json"));
-        assert!(check_render_mode("iso", None, true).unwrap_err().starts_with("--no-preintegration"));
+        use ModeArg::{Dvr, Iso};
+        assert_eq!(check_render_mode(Iso, None, false), Ok(None));
+        assert_eq!(check_render_mode(Dvr, Some("mni-tissue"), false), Ok(Some(TfChoice::Named("mni-tissue".into()))));
+        // No --tf: the default ramp, chosen once the data is loaded.
+        assert_eq!(check_render_mode(Dvr, None, false), Ok(Some(TfChoice::Ramp)));
+        assert!(check_render_mode(Iso, Some("x.json"), false).unwrap_err().starts_with("--tf x.json"));
+        assert!(check_render_mode(Iso, None, true).unwrap_err().starts_with("--no-preintegration"));
+        // --renderer pt: DVR, no cache, orthographic.
+        use {CacheArg::Perm, RendererArg::Pt};
+        assert_eq!(check_renderer(RendererArg::Raycast, Iso, Perm, true), Ok(false));
+        assert_eq!(check_renderer(Pt, Dvr, CacheArg::None, false), Ok(true));
+        assert!(check_renderer(Pt, Iso, CacheArg::None, false).unwrap_err().contains("--mode dvr"));
+        assert!(check_renderer(Pt, Dvr, Perm, false).unwrap_err().contains("drop --cache perm"));
+        assert!(check_renderer(Pt, Dvr, CacheArg::None, true).unwrap_err().contains("--perspective"));
         let t = boxforge_runtime::render::dvr::transfer::TransferFunction::preset("mni-tissue").table();
         assert!(tf_warning(&t, 0.0, 20.0).is_some() && tf_warning(&t, 0.0, 255.0).is_none());
     }
@@ -417,27 +474,29 @@ mod tests {
 
     #[test]
     fn bad_cache_options_are_refused_with_the_flag_named() {
-        assert_eq!(check_cache("none", "dvr", None, None), Ok(None));
-        assert_eq!(check_cache("perm", "dvr", None, None), Ok(Some(Quant { density: 5, gradient: 5 })));
-        assert_eq!(check_cache("perm", "dvr", Some(5), Some(3)), Ok(Some(Quant { density: 5, gradient: 3 })));
+        use CacheArg::{None as NoCache, Perm};
+        use ModeArg::{Dvr, Iso};
+        assert_eq!(check_cache(NoCache, Dvr, None, None), Ok(None));
+        assert_eq!(check_cache(Perm, Dvr, None, None), Ok(Some(Quant { density: 5, gradient: 5 })));
+        assert_eq!(check_cache(Perm, Dvr, Some(5), Some(3)), Ok(Some(Quant { density: 5, gradient: 3 })));
+        // An unknown --cache (e.g. lru) is clap's refusal now: tests/it/bad_input.rs.
         for (cache, mode, qc, qg, fragment) in [
-            ("perm", "dvr", Some(0), None, "--qc 0"),
-            ("perm", "dvr", Some(4), Some(0), "--qc-grad 0"),
-            ("perm", "dvr", Some(1000), None, "over the limit of 2147483648 bytes"),
-            ("perm", "iso", None, None, "--mode iso"),
-            ("lru", "dvr", None, None, "--cache lru"),
-            ("none", "dvr", Some(5), None, "add --cache perm"),
+            (Perm, Dvr, Some(0), None, "--qc 0"),
+            (Perm, Dvr, Some(4), Some(0), "--qc-grad 0"),
+            (Perm, Dvr, Some(1000), None, "over the limit of 2147483648 bytes"),
+            (Perm, Iso, None, None, "--mode iso"),
+            (NoCache, Dvr, Some(5), None, "add --cache perm"),
         ] {
             let e = check_cache(cache, mode, qc, qg).unwrap_err();
             assert!(e.contains(fragment) && !e.contains('\n'), "{e}");
         }
         // The refusal names the bytes: 1000^3 x 2 + 1000^3 x 4.
-        assert!(check_cache("perm", "dvr", Some(1000), None).unwrap_err().contains("6000000000 bytes"));
+        assert!(check_cache(Perm, Dvr, Some(1000), None).unwrap_err().contains("6000000000 bytes"));
         // The largest accepted N is the one the message suggests.
-        let e = check_cache("perm", "dvr", Some(1000), None).unwrap_err();
+        let e = check_cache(Perm, Dvr, Some(1000), None).unwrap_err();
         let largest: u32 = e.rsplit("--qc ").next().unwrap().split(' ').next().unwrap().parse().unwrap();
-        assert!(check_cache("perm", "dvr", Some(largest), None).is_ok());
-        assert!(check_cache("perm", "dvr", Some(largest + 1), None).is_err());
+        assert!(check_cache(Perm, Dvr, Some(largest), None).is_ok());
+        assert!(check_cache(Perm, Dvr, Some(largest + 1), None).is_err());
     }
 
     #[test]

@@ -28,6 +28,7 @@ impl From<ShadingArg> for Shading {
 }
 
 /// Which renderer draws the frame.
+#[derive(Clone, Copy, Debug)]
 pub enum How {
     /// A hand-written plane-stack scheme (`--filter mattausch_bilinear...`).
     Scheme(Scheme),

@@ -3,11 +3,10 @@
 //! series, by evaluating the 4D spline at (x, y, z, t) on the device
 //! (`boxforge_runtime::render::four`).
 
-use super::RenderArgs;
-use crate::common::{parse_view, Failure};
-use crate::request;
+use super::checked::{FourRequest, Source, Times};
+use crate::common::Failure;
+use crate::request::TfChoice;
 use boxforge::derive::Derivation;
-use boxforge::emit::Layout;
 use boxforge::spec::lattice::Lattice;
 use boxforge_runtime::gpu::Gpu;
 use boxforge_runtime::render::dvr::transfer::TransferFunction;
@@ -23,7 +22,7 @@ use std::path::{Path, PathBuf};
 /// numbered raw frames with `--raw nx,ny,nz,type` (Cartesian series: as they
 /// are on Z^4, else their lattice subset or, with --resample, resampled at a
 /// matched count).
-fn load_volume(a: &RenderArgs, lattice: &Lattice) -> Result<(LatticeVolume4, f64, usize), Failure> {
+fn load_volume(a: &Source, lattice: &Lattice) -> Result<(LatticeVolume4, f64, usize), Failure> {
     let volume = a.volume.as_str();
     if let Some(spec) = volume.strip_prefix("ml-drift:") {
         let bad =
@@ -65,70 +64,40 @@ fn numbered(out: &Path, k: usize) -> PathBuf {
     out.with_file_name(format!("{stem}-{k:04}.png"))
 }
 
-pub(super) fn run(a: &RenderArgs, d: &Derivation) -> Result<(), Failure> {
-    let (az, el) = parse_view(&a.view)?;
-    request::check_render_numbers(a.size, a.step, a.iso, az, el)?;
-    request::check_output_file(&a.out, "--out")?;
-    // What the 4D renderer does not do yet, refused by name.
-    let refuse = |flag: &str| -> Result<(), Failure> {
-        Err(Failure(format!(
-            "{flag} is not offered for 4D filters yet (orthographic isosurfaces and DVR, in core): drop it"
-        )))
+/// The work of a checked 4D `render`: the filter derived, the series
+/// loaded, the frames drawn and written.
+pub(super) fn run(r: &FourRequest) -> Result<(), Failure> {
+    let d = &Derivation::new(&r.filter)?;
+    let (a, layout, size) = (&r.frame, r.layout, r.frame.size);
+    // DVR: --tf loaded before the data (a ramp over the samples' range without one).
+    let named = match &r.tf {
+        Some(TfChoice::Named(name)) => Some(TransferFunction::load(name).map_err(|e| Failure(format!("--tf {e}")))?),
+        _ => None,
     };
-    request::check_render_mode(a.mode.name(), a.tf.as_deref(), a.no_preintegration)?;
-    let dvr = a.mode == super::ModeArg::Dvr;
-    if dvr && (a.no_preintegration || a.tf_curvature) {
-        return refuse("--no-preintegration/--tf-curvature");
-    }
-    if a.gpu_budget.is_some() {
-        return refuse("--gpu-budget");
-    }
-    let exact = a.hit != super::HitArg::Step;
-    if exact && dvr {
-        return Err(Failure("--hit exact finds isosurfaces; DVR samples fixed steps: drop --hit or --mode dvr".into()));
-    }
-    if a.shade != super::ShadeArg::Phong {
-        return refuse("--shade");
-    }
-    if a.cache != super::CacheArg::None || a.renderer != super::RendererArg::Raycast {
-        return refuse("--cache/--renderer");
-    }
-    if a.perspective {
-        return refuse("--perspective");
-    }
-    let layout = Layout::from(a.layout);
-    if layout.is_bricked() {
-        return Err(Failure(format!(
-            "--layout {}: 4D samples are a storage buffer; use --layout embedded or packed",
-            layout.name()
-        )));
-    }
-    let (vol, per_frame, frames) = load_volume(a, &d.filter.lattice)?;
+    let (vol, per_frame, frames) = load_volume(&r.source, &d.filter.lattice)?;
     let last = (frames - 1) as f32;
-    let times: Vec<f32> = match (a.time, a.frames) {
-        (Some(_), Some(_)) => return Err(Failure("--time draws one frame and --frames an animation: give one".into())),
-        (Some(t), None) if !(0.0..=last).contains(&t) => {
+    let times: Vec<f32> = match r.times {
+        Times::At(t) if !(0.0..=last).contains(&t) => {
             return Err(Failure(format!("--time {t}: the series has frames 0 to {last}; give a time in that range")))
         }
-        (Some(t), None) => vec![t],
-        (None, Some(0)) => return Err(Failure("--frames 0: give at least 1 frame".into())),
-        (None, Some(n)) => (0..n).map(|k| if n == 1 { 0.0 } else { last * k as f32 / (n - 1) as f32 }).collect(),
-        (None, None) => vec![0.5 * last],
+        Times::At(t) => vec![t],
+        Times::Frames(n) => (0..n).map(|k| if n == 1 { 0.0 } else { last * k as f32 / (n - 1) as f32 }).collect(),
+        Times::Middle => vec![0.5 * last],
     };
     let gpu = Gpu::new(a.adapter.as_deref()).map_err(|e| Failure(e.to_string()))?;
     let renderer = FourIsoRenderer::new(&gpu, d, &vol, layout).map_err(|e| Failure(e.to_string()))?;
     let o = FourIsoOptions {
-        width: a.size,
-        height: a.size,
+        width: size,
+        height: size,
         iso: a.iso,
         step: a.step,
-        camera: Camera { azimuth: az, elevation: el, perspective: false },
-        exact,
+        camera: Camera { azimuth: a.azimuth, elevation: a.elevation, perspective: false },
+        exact: r.exact,
     };
     // DVR: --tf, or a ramp over the samples' range.
-    let tf = if dvr {
-        let f = match &a.tf {
-            Some(name) => TransferFunction::load(name).map_err(|e| Failure(format!("--tf {e}")))?,
+    let tf = if r.tf.is_some() {
+        let f = match named {
+            Some(f) => f,
             None => {
                 let (lo, hi) =
                     vol.data.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(l, h), &v| (l.min(v), h.max(v)));
@@ -149,7 +118,7 @@ pub(super) fn run(a: &RenderArgs, d: &Derivation) -> Result<(), Failure> {
         }
         .map_err(|e| Failure(e.to_string()))?;
         let path = if times.len() == 1 { a.out.clone() } else { numbered(&a.out, k) };
-        boxforge_runtime::render::iso::write_png(&path, a.size, a.size, &rgba)
+        boxforge_runtime::render::iso::write_png(&path, size, size, &rgba)
             .map_err(|e| Failure(format!("cannot write {}: {e}", path.display())))?;
         bar.inc(1);
         if times.len() == 1 {

@@ -1,19 +1,67 @@
 //! `render --gpu-budget`: an isosurface or a volume rendering out of core,
 //! with the frame's passes, uploads and memory on one line.
 
+use super::checked::{Look, PagedRequest, ThreeRequest};
 use crate::common::Failure;
 use boxforge::derive::Derivation;
 use boxforge_runtime::gpu::Gpu;
-use boxforge_runtime::render::dvr::transfer::Tf1d;
+use boxforge_runtime::render::dvr::transfer::{Tf1d, TransferFunction};
 use boxforge_runtime::render::dvr::{DvrLook, DvrOptions};
 use boxforge_runtime::render::iso::{self as render, Frame, RenderOptions};
 use boxforge_runtime::render::paged::{human, PagedDvrRenderer, PagedIsoRenderer, PagedOptions, PagedStats};
 use boxforge_runtime::volume::{BrickSource, MappedVolume};
 
+/// The work of a checked `render --gpu-budget`: the source opened, the
+/// default ramp (when no --tf) over its samples, one frame in passes.
+pub fn run(r: &ThreeRequest, p: &PagedRequest, d: &Derivation, tf: Option<TransferFunction>) -> Result<(), Failure> {
+    let f = &r.frame;
+    let options = boxforge_runtime::render::paged::PagedOptions {
+        iso: f.iso,
+        step: f.step,
+        brick: r.brick.unwrap_or(boxforge_runtime::volume::BrickShape::DEFAULT_EDGE),
+        format: r.format,
+        budget: p.budget,
+        max_pixels: f.size as u64 * f.size as u64,
+        bounds_cache: p.bounds_cache.then(boxforge_runtime::volume::default_cache_dir),
+        ..Default::default()
+    };
+    let camera = RenderOptions {
+        width: f.size,
+        height: f.size,
+        azimuth: f.azimuth,
+        elevation: f.elevation,
+        perspective: f.perspective,
+        frames: 0,
+        ..RenderOptions::default()
+    };
+    let source = open_source(&r.source.volume, r.source.raw.as_deref(), &r.filter.lattice)?;
+    let what = match &r.look {
+        Look::Iso(_) => Paged::Iso(camera),
+        Look::Dvr(look) => {
+            let tf = match tf {
+                Some(tf) => tf,
+                None => {
+                    // No --tf: the default ramp over the samples' range (one pass over the source).
+                    let (lo, hi) = source.sample_range().map_err(|e| Failure(e.to_string()))?;
+                    super::core::default_ramp(lo, hi)
+                }
+            };
+            let o = super::core::dvr_options(r, look);
+            let look = DvrLook::from(&o);
+            Paged::Dvr(tf.table(), look, o)
+        }
+    };
+    // Before the device starts its threads (see the function's doc).
+    boxforge_runtime::memory::one_heap_arena();
+    let gpu = Gpu::new(f.adapter.as_deref()).map_err(|e| Failure(e.to_string()))?;
+    crate::request::check_image_limits(f.size, &gpu.limits())?;
+    render(&gpu, d, source.as_ref(), options, what, &f.out, p.stats_json)
+}
+
 /// The samples `--volume` names, for out-of-core rendering: `ml:N` built in
 /// memory, a file mapped and read brick by brick (a `.nii.gz` decompressed
 /// once into the cache folder, with progress).
-pub fn open_source(
+fn open_source(
     volume: &str,
     raw: Option<&str>,
     lattice: &boxforge::spec::lattice::Lattice,
@@ -38,7 +86,7 @@ pub fn open_source(
 }
 
 /// What `render --gpu-budget` draws.
-pub enum Paged {
+enum Paged {
     /// An isosurface (the camera and image size).
     Iso(RenderOptions),
     /// A volume rendering: the transfer function, the look and the frame.
@@ -71,7 +119,7 @@ impl Renderer {
 
 /// Preprocesses `source` brick row by brick row (a progress line on
 /// stderr), renders one frame in passes and writes it to `out`.
-pub fn render(
+fn render(
     gpu: &Gpu,
     d: &Derivation,
     source: &dyn BrickSource,
