@@ -1,7 +1,9 @@
 //! WGSL emission: turns a [`Plan`] and the exact reference forms into a
 //! module with `<f>_fetch`, `<f>_eval`, `<f>_eval_grad`, and the prefilter
-//! and min/max kernels. Skeletons are minijinja templates (`templates/`);
-//! expression code is written by the small `Body` writer below.
+//! and min/max kernels. Skeletons are minijinja templates
+//! (`templates/generator/`, rendered in the crate's one environment, see
+//! `emit/templates.rs`); expression code is written by the small `Body`
+//! writer below.
 //!
 //! The `fast` variant is straight-line code: folding, sorting networks and
 //! plane tests drive `select`; fetch positions walk axis-aligned steps. The
@@ -21,6 +23,7 @@ pub mod locate;
 pub mod naive;
 pub mod plan;
 pub mod ridge;
+mod templates;
 pub mod writer;
 
 use bounds::cube_bounds_fn;
@@ -402,7 +405,8 @@ pub fn file_name(filter: &str, layout: Layout, variant: Variant) -> String {
 /// where they do not apply (the naive variant; the embedded layout outside the
 /// one-coset tensor-product case); [`Error::Spec`] when other options cannot be
 /// met (`form = "factored"` on a filter that does not factor, the packed layout
-/// on a lattice without 2Z^s) or a template fails to render.
+/// on a lattice without 2Z^s); [`Error::Template`] if a template fails to
+/// render (a generator bug).
 pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
     if d.facts.dim == 4 {
         // WGSL has no 4D textures: 4D samples live in a storage buffer,
@@ -625,8 +629,7 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
     // 4D samples are one storage buffer whatever the layout.
     let storage = s == 4;
     let out_binding = opts.binding + if storage { 1 } else { opts.layout.sample_bindings() };
-    let env = template_env();
-    let tmpl = env.get_template("module.wgsl.j2").expect("template_env adds module.wgsl.j2");
+    let tmpl = templates::env().get_template("module.wgsl.j2").expect("templates::env adds module.wgsl.j2");
     let ctx = minijinja::context! {
         command => opts.command.clone(),
         name => name,
@@ -682,7 +685,7 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
             _ => 0,
         },
     };
-    let source = tmpl.render(ctx).map_err(|e| Error::Spec { origin: "templates".into(), message: e.to_string() })?;
+    let source = tmpl.render(ctx).map_err(|source| Error::Template { filter: name.to_string(), source })?;
     let stats = EmitStats {
         layout: opts.layout,
         variant: opts.variant,
@@ -839,30 +842,4 @@ fn choose_hessian_form(
         .min_by_key(|&i| (all[i].ops, all[i].form != eval_form, i))
         .expect("factored is available when the plan forms are skipped");
     all.swap_remove(best)
-}
-
-/// The templates, embedded at build time so the generator works as a
-/// build-dependency without the repository around it.
-fn template_env() -> minijinja::Environment<'static> {
-    let mut env = minijinja::Environment::new();
-    env.set_syntax(
-        minijinja::syntax::SyntaxConfig::builder()
-            .keep_trailing_newline(true)
-            .trim_blocks(true)
-            .build()
-            .expect("the default delimiters are a valid syntax"),
-    );
-    for (n, src) in [
-        ("module.wgsl.j2", include_str!("../../../templates/module.wgsl.j2")),
-        ("fetch_embedded.wgsl.j2", include_str!("../../../templates/fetch_embedded.wgsl.j2")),
-        ("fetch_packed.wgsl.j2", include_str!("../../../templates/fetch_packed.wgsl.j2")),
-        ("fetch_bricked.wgsl.j2", include_str!("../../../templates/fetch_bricked.wgsl.j2")),
-        ("fetch_bricked-packed.wgsl.j2", include_str!("../../../templates/fetch_bricked-packed.wgsl.j2")),
-        ("fetch_storage.wgsl.j2", include_str!("../../../templates/fetch_storage.wgsl.j2")),
-        ("kernels.wgsl.j2", include_str!("../../../templates/kernels.wgsl.j2")),
-    ] {
-        env.add_template(n, src)
-            .expect("the embedded templates are fixed at build time and parse (every emission test renders them)");
-    }
-    env
 }
