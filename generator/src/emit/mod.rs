@@ -402,11 +402,11 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
         if opts.layout.is_bricked() {
             return Err(refuse(
                 &format!("the {} layout", opts.layout.name()),
-                "use the embedded or packed layout (--layout embedded|packed)",
+                "use the embedded or packed layout (layout = embedded or packed)",
             ));
         }
         if opts.fetch == FetchMode::Linear {
-            return Err(refuse("hardware-filtered (linear) fetch", "use exact fetches (--fetch exact)"));
+            return Err(refuse("hardware-filtered (linear) fetch", "use exact fetches (fetch = exact)"));
         }
         if opts.texels != Texels::Float {
             return Err(refuse("u8x4 texels", "emit with Texels::Float and store the samples as f32"));
@@ -480,7 +480,7 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
             message: format!("fetch = linear {why}"),
         };
         if naive {
-            return Err(refuse("needs the fast variant; use --variant fast or exact fetches"));
+            return Err(refuse("needs the fast variant; use variant = fast or exact fetches"));
         }
         match opts.layout {
             // Every filter: pairs of one coset's samples, one slab per coset.
@@ -504,7 +504,7 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
                 _ => {
                     return Err(refuse(
                         "on the embedded layout needs a tensor-product filter on one coset with unit steps \
-                         (adjacent samples in one texture); use the packed layout (--layout packed), \
+                         (adjacent samples in one texture); use the packed layout (layout = packed), \
                          which pairs the samples of each coset in a filterable texture, or exact fetches",
                     ))
                 }
