@@ -20,8 +20,8 @@ pub enum Error {
     /// option the filter does not allow.
     #[error("malformed spec {origin}: {message} (see generator/catalog/*.toml for the format)")]
     Spec {
-        /// What the message is about: the spec's file or catalog path, the filter,
-        /// the lattice or the templates.
+        /// What the message is about: the spec's file or catalog path, the
+        /// filter or the lattice.
         origin: String,
         /// What is wrong (for unparsable TOML, the parser's message on one line).
         message: String,
@@ -172,6 +172,15 @@ pub enum Error {
     /// No output directory: neither `OUT_DIR` nor [`Builder::out_dir`](crate::Builder::out_dir) is set.
     #[error("no output directory: OUT_DIR is not set (Cargo sets it for build scripts); call .out_dir(path) on the boxforge::Builder outside a build script")]
     OutDir,
+    /// A template that failed to render (the templates are fixed at build
+    /// time and every emission test renders them, so this is a generator bug).
+    #[error("the WGSL templates failed to render for filter {filter}: {source} (this is a boxforge bug; please report it with the spec)")]
+    Template {
+        /// The filter whose module was being written.
+        filter: String,
+        /// minijinja's error.
+        source: minijinja::Error,
+    },
     /// A generated module that naga rejects or that is not branch-free (a generator bug).
     #[error(
         "generated WGSL for {file} is invalid: {message} (this is a boxforge bug; please report it with the spec)"

@@ -74,7 +74,7 @@ fn validate(module: Module, file: &str) -> Result<Validated, BackError> {
 
 fn with_purposes(filter: &str, mut list: Vec<Binding>) -> Vec<Binding> {
     for b in &mut list {
-        b.purpose = crate::emit::binding_purpose(filter, &b.name)
+        b.purpose = crate::validate::bindings::binding_purpose(filter, &b.name)
             .or_else(|| eval_kernel_purpose(filter, &b.name))
             .map(str::to_string);
     }

@@ -308,7 +308,7 @@ fn hlsl_units(p: &Prepared) -> Result<Vec<Unit>, BackError> {
         return Err(BackError::Unsupported {
             file: format!("{}.hlsl", p.stem),
             message: format!(
-                "the hlsl target cannot express the linear sampler `{}` (naga writes HLSL samplers as wgpu's DX12 sampler heap and index buffer): use --fetch exact for hlsl, or the wgsl, spirv, glsl, glsl-es or msl target for linear fetches",
+                "the hlsl target cannot express the linear sampler `{}` (naga writes HLSL samplers as wgpu's DX12 sampler heap and index buffer): use exact fetches (fetch = exact) for hlsl, or the wgsl, spirv, glsl, glsl-es or msl target for linear fetches",
                 s.name
             ),
         });

@@ -22,7 +22,8 @@ pub fn coset_pivots(lattice: &Lattice) -> Result<Vec<usize>> {
         if !lattice.contains(&e) {
             return Err(Error::Spec {
                 origin: format!("lattice {}", lattice.name),
-                message: "the packed layout needs 2Z^s inside the lattice; use --layout embedded".into(),
+                message: "the packed layout needs 2Z^s inside the lattice; use the embedded layout (layout = embedded)"
+                    .into(),
             });
         }
     }

@@ -1,7 +1,9 @@
 //! WGSL emission: turns a [`Plan`] and the exact reference forms into a
 //! module with `<f>_fetch`, `<f>_eval`, `<f>_eval_grad`, and the prefilter
-//! and min/max kernels. Skeletons are minijinja templates (`templates/`);
-//! expression code is written by the small `Body` writer below.
+//! and min/max kernels. Skeletons are minijinja templates
+//! (`templates/generator/`, rendered in the crate's one environment, see
+//! `emit/templates.rs`); expression code is written by the small `Body`
+//! writer below.
 //!
 //! The `fast` variant is straight-line code: folding, sorting networks and
 //! plane tests drive `select`; fetch positions walk axis-aligned steps. The
@@ -21,6 +23,7 @@ pub mod locate;
 pub mod naive;
 pub mod plan;
 pub mod ridge;
+mod templates;
 pub mod writer;
 
 use bounds::cube_bounds_fn;
@@ -351,26 +354,10 @@ pub struct EmitStats {
     pub fetch: FetchMode,
 }
 
-/// What the host must bind to the variable `name` of a module emitted for
-/// filter `filter`, in one sentence; `None` for a name the emitter does not
-/// write. Hand-written because the meaning of the bytes is not in the WGSL;
-/// the numbers (group, binding, type) are read from the module itself
-/// ([`crate::validate::bindings_of_wgsl`]).
-pub fn binding_purpose(filter: &str, name: &str) -> Option<&'static str> {
-    Some(match name.strip_prefix(filter)?.strip_prefix('_')? {
-        "samples" => "The 4D samples as a read-only storage buffer: a vec4<i32> header (the stored extent, embedded; one coset's grid size, packed), then the f32 samples x fastest, then y, z and w (packed: the coset grids tiled as in the packed texture layout).",
-        "volume" => "The samples as an r32float texture (r16float, r16unorm, r8unorm read the same; u8x4 modules: r32uint, four u8 samples a texel along x): lattice point j at texel j (the other texels are unused).",
-        "cosets" => "The samples packed per coset of 2Z^s as one r32float texture (filterable with fetch = linear): lattice point j at texel (j >> 1) + (j & p) * grid.size, p = 1 on the pivot axes of the coset id, so each coset's grid is one tile.",
-        "grid" => "The coset grid: its size (x, y, z or x, y) and, in w, the words per coset.",
-        "pool" => "The brick pool as an r32float (or compact-format; u8x4 modules: r32uint, four u8 samples a texel along x) texture: slot s holds brick k's texels k * B - h .. (k + 1) * B + h (clamped to the volume), as they are (bricked) or coset-packed in a tile per coset (bricked-packed).",
-        "bricks" => "The brick geometry: the volume's size in lattice texels (bricked) or its coset grid size (bricked-packed) with the brick edge B in w, and the bricks per axis with the halo h in w.",
-        "pages" => "The page table as an r32uint texture, one texel per brick: its slot (10 bits per axis in 3D, 16 in 2D).",
-        "linear" => "A linear, clamp-to-edge sampler for the hardware-filtered fetches.",
-        "out" => "The kernels' output buffer: one prefiltered value per point of the job's box (row-major), or a (min, max) pair per block for minmax.",
-        "job" => "The kernel's job: the box's lattice-coordinate origin and extent, and the block edge B in extent.w for minmax.",
-        _ => return None,
-    })
-}
+/// Re-exported where it was defined first: the table lives beside
+/// [`crate::validate::Binding`] so that the back ends, which sit below the
+/// emitter, can read it too.
+pub use crate::validate::bindings::binding_purpose;
 
 /// One emitted WGSL module: its file name, source and counts.
 #[derive(Clone, Debug)]
@@ -402,7 +389,8 @@ pub fn file_name(filter: &str, layout: Layout, variant: Variant) -> String {
 /// where they do not apply (the naive variant; the embedded layout outside the
 /// one-coset tensor-product case); [`Error::Spec`] when other options cannot be
 /// met (`form = "factored"` on a filter that does not factor, the packed layout
-/// on a lattice without 2Z^s) or a template fails to render.
+/// on a lattice without 2Z^s); [`Error::Template`] if a template fails to
+/// render (a generator bug).
 pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
     if d.facts.dim == 4 {
         // WGSL has no 4D textures: 4D samples live in a storage buffer,
@@ -414,11 +402,11 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
         if opts.layout.is_bricked() {
             return Err(refuse(
                 &format!("the {} layout", opts.layout.name()),
-                "use the embedded or packed layout (--layout embedded|packed)",
+                "use the embedded or packed layout (layout = embedded or packed)",
             ));
         }
         if opts.fetch == FetchMode::Linear {
-            return Err(refuse("hardware-filtered (linear) fetch", "use exact fetches (--fetch exact)"));
+            return Err(refuse("hardware-filtered (linear) fetch", "use exact fetches (fetch = exact)"));
         }
         if opts.texels != Texels::Float {
             return Err(refuse("u8x4 texels", "emit with Texels::Float and store the samples as f32"));
@@ -492,7 +480,7 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
             message: format!("fetch = linear {why}"),
         };
         if naive {
-            return Err(refuse("needs the fast variant; use --variant fast or exact fetches"));
+            return Err(refuse("needs the fast variant; use variant = fast or exact fetches"));
         }
         match opts.layout {
             // Every filter: pairs of one coset's samples, one slab per coset.
@@ -516,7 +504,7 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
                 _ => {
                     return Err(refuse(
                         "on the embedded layout needs a tensor-product filter on one coset with unit steps \
-                         (adjacent samples in one texture); use the packed layout (--layout packed), \
+                         (adjacent samples in one texture); use the packed layout (layout = packed), \
                          which pairs the samples of each coset in a filterable texture, or exact fetches",
                     ))
                 }
@@ -625,8 +613,7 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
     // 4D samples are one storage buffer whatever the layout.
     let storage = s == 4;
     let out_binding = opts.binding + if storage { 1 } else { opts.layout.sample_bindings() };
-    let env = template_env();
-    let tmpl = env.get_template("module.wgsl.j2").expect("template_env adds module.wgsl.j2");
+    let tmpl = templates::env().get_template("module.wgsl.j2").expect("templates::env adds module.wgsl.j2");
     let ctx = minijinja::context! {
         command => opts.command.clone(),
         name => name,
@@ -682,7 +669,7 @@ pub fn emit(d: &Derivation, opts: &EmitOptions) -> Result<Emitted> {
             _ => 0,
         },
     };
-    let source = tmpl.render(ctx).map_err(|e| Error::Spec { origin: "templates".into(), message: e.to_string() })?;
+    let source = tmpl.render(ctx).map_err(|source| Error::Template { filter: name.to_string(), source })?;
     let stats = EmitStats {
         layout: opts.layout,
         variant: opts.variant,
@@ -839,30 +826,4 @@ fn choose_hessian_form(
         .min_by_key(|&i| (all[i].ops, all[i].form != eval_form, i))
         .expect("factored is available when the plan forms are skipped");
     all.swap_remove(best)
-}
-
-/// The templates, embedded at build time so the generator works as a
-/// build-dependency without the repository around it.
-fn template_env() -> minijinja::Environment<'static> {
-    let mut env = minijinja::Environment::new();
-    env.set_syntax(
-        minijinja::syntax::SyntaxConfig::builder()
-            .keep_trailing_newline(true)
-            .trim_blocks(true)
-            .build()
-            .expect("the default delimiters are a valid syntax"),
-    );
-    for (n, src) in [
-        ("module.wgsl.j2", include_str!("../../../templates/module.wgsl.j2")),
-        ("fetch_embedded.wgsl.j2", include_str!("../../../templates/fetch_embedded.wgsl.j2")),
-        ("fetch_packed.wgsl.j2", include_str!("../../../templates/fetch_packed.wgsl.j2")),
-        ("fetch_bricked.wgsl.j2", include_str!("../../../templates/fetch_bricked.wgsl.j2")),
-        ("fetch_bricked-packed.wgsl.j2", include_str!("../../../templates/fetch_bricked-packed.wgsl.j2")),
-        ("fetch_storage.wgsl.j2", include_str!("../../../templates/fetch_storage.wgsl.j2")),
-        ("kernels.wgsl.j2", include_str!("../../../templates/kernels.wgsl.j2")),
-    ] {
-        env.add_template(n, src)
-            .expect("the embedded templates are fixed at build time and parse (every emission test renders them)");
-    }
-    env
 }

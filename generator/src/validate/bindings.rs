@@ -32,8 +32,31 @@ pub struct Binding {
     /// whose call tree uses the variable, in module order.
     pub functions: Vec<String>,
     /// What the host must put there, in one sentence; `None` unless the
-    /// caller knows the module (see `boxforge::emit::binding_purpose`).
+    /// caller knows the module (see [`binding_purpose`]).
     pub purpose: Option<String>,
+}
+
+/// What the host must bind to the variable `name` of a module emitted for
+/// filter `filter`, in one sentence; `None` for a name the emitter does not
+/// write. Hand-written because the meaning of the bytes is not in the WGSL;
+/// the numbers (group, binding, type) are read from the module itself
+/// ([`bindings_of_wgsl`]). Kept here, beside [`Binding::purpose`], rather
+/// than in the emitter, so that the back ends (below the emitter in the
+/// generator's stages) can fill it in without importing `emit`.
+pub fn binding_purpose(filter: &str, name: &str) -> Option<&'static str> {
+    Some(match name.strip_prefix(filter)?.strip_prefix('_')? {
+        "samples" => "The 4D samples as a read-only storage buffer: a vec4<i32> header (the stored extent, embedded; one coset's grid size, packed), then the f32 samples x fastest, then y, z and w (packed: the coset grids tiled as in the packed texture layout).",
+        "volume" => "The samples as an r32float texture (r16float, r16unorm, r8unorm read the same; u8x4 modules: r32uint, four u8 samples a texel along x): lattice point j at texel j (the other texels are unused).",
+        "cosets" => "The samples packed per coset of 2Z^s as one r32float texture (filterable with fetch = linear): lattice point j at texel (j >> 1) + (j & p) * grid.size, p = 1 on the pivot axes of the coset id, so each coset's grid is one tile.",
+        "grid" => "The coset grid: its size (x, y, z or x, y) and, in w, the words per coset.",
+        "pool" => "The brick pool as an r32float (or compact-format; u8x4 modules: r32uint, four u8 samples a texel along x) texture: slot s holds brick k's texels k * B - h .. (k + 1) * B + h (clamped to the volume), as they are (bricked) or coset-packed in a tile per coset (bricked-packed).",
+        "bricks" => "The brick geometry: the volume's size in lattice texels (bricked) or its coset grid size (bricked-packed) with the brick edge B in w, and the bricks per axis with the halo h in w.",
+        "pages" => "The page table as an r32uint texture, one texel per brick: its slot (10 bits per axis in 3D, 16 in 2D).",
+        "linear" => "A linear, clamp-to-edge sampler for the hardware-filtered fetches.",
+        "out" => "The kernels' output buffer: one prefiltered value per point of the job's box (row-major), or a (min, max) pair per block for minmax.",
+        "job" => "The kernel's job: the box's lattice-coordinate origin and extent, and the block edge B in extent.w for minmax.",
+        _ => return None,
+    })
 }
 
 /// The bindings of any WGSL source, sorted by (group, binding).

@@ -205,7 +205,7 @@ fn linear_fetches_match_the_exact_evaluator_on_the_device() {
     let e = verify_fetch(gpu, &bcc7, Layout::Embedded, Variant::Fast, None, Bounds::Clamp, FetchMode::Linear, 10, 1)
         .unwrap_err()
         .to_string();
-    assert!(e.contains("fetch = linear") && e.contains("--layout packed"), "{e}");
+    assert!(e.contains("fetch = linear") && e.contains("layout = packed"), "{e}");
     // Packed: pairs of each coset's samples through the coset-slab texture
     // (points a support radius inside; the borders have their own test).
     for name in ["bcc7", "bcc8", "fcc6", "bcc_linear", "cc_tricubic"] {

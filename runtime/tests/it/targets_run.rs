@@ -87,7 +87,7 @@ fn linear_fetches_run_in_spirv_and_glsl_and_hlsl_refuses_cleanly() {
             }
         }
         let e = run(&d, layout, Target::Hlsl, Runner::Vulkan, 1).expect_err("HLSL has no linear sampler").to_string();
-        assert!(e.contains("--fetch exact"), "{e}");
+        assert!(e.contains("fetch = exact"), "{e}");
     }
 }
 

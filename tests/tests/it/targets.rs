@@ -93,7 +93,7 @@ fn every_catalog_module_translates_checks_and_compiles_in_every_target() {
                             // naga's HLSL samplers need wgpu's DX12 sampler heap: refused, with the way out.
                             let e = translated.expect_err("hlsl with a sampler is refused");
                             assert!(
-                                matches!(e, BackError::Unsupported { .. }) && e.to_string().contains("--fetch exact")
+                                matches!(e, BackError::Unsupported { .. }) && e.to_string().contains("fetch = exact")
                             );
                             out.push((*target, format!("{stem}.hlsl"), Outcome::NotCompilable { why: "refused" }));
                             continue;

@@ -160,7 +160,7 @@ fn linear_fetch_modules_are_branch_free_with_eight_filtered_fetches() {
     for name in ["bcc7", "bcc12"] {
         let d = boxforge_tests::derive(name);
         let err = emit(&d, &EmitOptions { fetch: FetchMode::Linear, ..EmitOptions::default() }).unwrap_err();
-        assert!(err.to_string().contains("--layout packed"), "{name}: {err}");
+        assert!(err.to_string().contains("layout = packed"), "{name}: {err}");
     }
 }
 
