@@ -3,6 +3,9 @@
 
 use crate::gpu::binding::storage_entry;
 use crate::gpu::{Gpu, GpuError};
+/// Re-exported where the device checks have always offered them.
+pub use crate::par::par_map;
+pub use crate::volume::support_radius;
 use crate::volume::LatticeVolume;
 use crate::volume::{BrickShape, DeviceVolume, VolumeOptions};
 use boxforge::derive::Derivation;
@@ -76,14 +79,6 @@ impl Rng {
         z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
         ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
     }
-}
-
-/// Half-extent of the support along each axis, rounded up.
-pub fn support_radius(d: &Derivation) -> usize {
-    (0..d.facts.dim)
-        .map(|i| d.facts.directions.iter().map(|v| v[i].unsigned_abs()).sum::<u64>().div_ceil(2) as usize)
-        .max()
-        .unwrap_or(1)
 }
 
 /// Random data in [0, 1) at the lattice points of a box big enough for the support.
@@ -302,23 +297,6 @@ pub fn random_points(d: &Derivation, vol: &LatticeVolume, count: usize, seed: u6
             p
         })
         .collect()
-}
-
-/// `f` of every item, in order, on every core (the exact evaluator is the
-/// slow side of every device check).
-pub fn par_map<T: Sync, R: Send>(items: &[T], f: impl Fn(&T) -> R + Sync) -> Vec<R> {
-    let threads = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
-    let chunk = items.len().div_ceil(threads).max(1);
-    std::thread::scope(|s| {
-        let handles: Vec<_> = items
-            .chunks(chunk)
-            .map(|c| {
-                let f = &f;
-                s.spawn(move || c.iter().map(f).collect::<Vec<R>>())
-            })
-            .collect();
-        handles.into_iter().flat_map(|h| h.join().expect("a worker of par_map panicked")).collect()
-    })
 }
 
 /// Exact (f64) evaluation at the points, on all cores.

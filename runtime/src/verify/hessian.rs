@@ -118,7 +118,7 @@ impl<'a> HessianEvaluator<'a> {
 pub fn cpu_eval_hessian(d: &Derivation, vol: &LatticeVolume, points: &[[f32; 4]]) -> Vec<SecondOrder> {
     let data = |j: &[i64]| vol.get(j) as f64;
     let _ = d.f64_tables();
-    super::par_map(points, |p| d.eval_f64_hessian(&[p[0] as f64, p[1] as f64, p[2] as f64], &data))
+    crate::par::par_map(points, |p| d.eval_f64_hessian(&[p[0] as f64, p[1] as f64, p[2] as f64], &data))
 }
 
 /// The running comparison of device Hessians against the exact evaluator.

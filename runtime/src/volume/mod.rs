@@ -46,6 +46,25 @@ pub use synthetic::{marschner_lobb, marschner_lobb_grad, marschner_lobb_hessian,
 
 use error::checked_count;
 
+/// How far a filter's support reaches from a point, in lattice units along
+/// each axis, rounded up: the largest half-width of the generator's
+/// zonotope ([`SplineFacts::support_half_width`] along each axis). The
+/// margin the renderers keep around a volume's box, and the room the
+/// device checks leave inside theirs.
+///
+/// [`SplineFacts::support_half_width`]: boxforge::derive::spline::SplineFacts::support_half_width
+pub fn support_radius(d: &boxforge::derive::Derivation) -> usize {
+    (0..d.facts.dim)
+        .map(|i| {
+            let axis: Vec<i64> = (0..d.facts.dim).map(|j| i64::from(i == j)).collect();
+            let half = d.facts.support_half_width(&axis);
+            let floor = half.floor_i64().expect("a support's half-width is a small rational");
+            (floor + i64::from(!half.is_integer())) as usize
+        })
+        .max()
+        .unwrap_or(1)
+}
+
 /// A scalar volume on a Cartesian grid, x fastest: value(i,j,k) = data[i + nx*(j + ny*k)].
 #[derive(Clone, Debug, PartialEq)]
 pub struct Volume {
