@@ -5,8 +5,10 @@
 //! `eval_hessian`, with the 3D tolerances and the same acceptance of points
 //! within rounding of a knot plane.
 
+use super::exact::{near_knot, GRADIENT_TOLERANCE, VALUE_TOLERANCE};
 use super::hessian::HESSIAN_TOLERANCE;
-use super::{kernel, near_knot, Rng, VerifyError, VerifyReport, GRADIENT_TOLERANCE, VALUE_TOLERANCE};
+use super::inputs::Rng;
+use super::{kernel, VerifyError, VerifyReport};
 use crate::gpu::binding::storage_entry;
 use crate::gpu::Gpu;
 use crate::volume::{DeviceVolume4, LatticeVolume4};

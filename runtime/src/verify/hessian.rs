@@ -5,7 +5,8 @@
 //! a plane passes when it matches the piece on either side (counted), never
 //! with a looser tolerance.
 
-use super::{kernel, near_knot, Tally, POINTS_PER_DISPATCH};
+use super::exact::{near_knot, Tally};
+use super::{kernel, POINTS_PER_DISPATCH};
 use crate::gpu::{Gpu, GpuError};
 use crate::volume::{DeviceVolume, LatticeVolume};
 use boxforge::derive::Derivation;
