@@ -19,6 +19,7 @@ pub mod bench;
 pub mod gpu;
 pub mod limits;
 pub mod memory;
+pub mod par;
 #[cfg(feature = "pictures")]
 pub mod pictures;
 pub mod prefilter;

@@ -18,6 +18,14 @@ pub fn current_resident_bytes() -> Option<u64> {
     status_bytes("VmRSS")
 }
 
+/// Prints the process's memory at a step of the out-of-core set-up when
+/// `BOXFORGE_MEMORY_TRACE` is set (how the out-of-core bound was tracked down).
+pub(crate) fn trace_memory(what: &str) {
+    if std::env::var_os("BOXFORGE_MEMORY_TRACE").is_some() {
+        eprintln!("{what}: RSS {:?} HWM {:?}", current_resident_bytes(), peak_resident_bytes());
+    }
+}
+
 /// Hands the heap memory this process has freed back to the kernel where
 /// the allocator keeps it (glibc's `malloc_trim`; a no-op elsewhere). The
 /// out-of-core paths free tens of MiB of preprocessing tables before they

@@ -3,14 +3,21 @@
 
 use crate::gpu::binding::storage_entry;
 use crate::gpu::{Gpu, GpuError};
+/// Re-exported where the device checks have always offered them.
+pub use crate::par::par_map;
+pub use crate::volume::support_radius;
 use crate::volume::LatticeVolume;
 use crate::volume::{BrickShape, DeviceVolume, VolumeOptions};
 use boxforge::derive::Derivation;
 use boxforge::emit::{emit, Bounds, EmitOptions, EvalForm, FetchMode, Layout, Variant};
+pub use exact::{cpu_eval, knot_tolerance, near_knot, nearest_knot_planes, Tally, GRADIENT_TOLERANCE, VALUE_TOLERANCE};
+pub use inputs::{brick_face_points, data_range, random_points, random_volume, Rng};
 use serde::Serialize;
 
+pub mod exact;
 pub mod four;
 pub mod hessian;
+pub mod inputs;
 pub mod kernel;
 pub mod target;
 
@@ -64,45 +71,6 @@ pub struct VerifyReport {
     pub hessian_accepted_other_side: usize,
     pub passed: bool,
     pub adapter: String,
-}
-
-/// A deterministic random source (SplitMix64).
-pub struct Rng(pub u64);
-impl Rng {
-    pub fn next_f64(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
-
-/// Half-extent of the support along each axis, rounded up.
-pub fn support_radius(d: &Derivation) -> usize {
-    (0..d.facts.dim)
-        .map(|i| d.facts.directions.iter().map(|v| v[i].unsigned_abs()).sum::<u64>().div_ceil(2) as usize)
-        .max()
-        .unwrap_or(1)
-}
-
-/// Random data in [0, 1) at the lattice points of a box big enough for the support.
-pub fn random_volume(d: &Derivation, seed: u64) -> LatticeVolume {
-    let r = support_radius(d);
-    let n = (2 * r + 10).next_multiple_of(2);
-    let dims = [n, n, n];
-    let mut rng = Rng(seed);
-    let mut data = vec![0f32; n * n * n];
-    for k in 0..n {
-        for j in 0..n {
-            for i in 0..n {
-                if d.filter.lattice.contains(&[i as i64, j as i64, k as i64]) {
-                    data[i + n * (j + n * k)] = rng.next_f64() as f32;
-                }
-            }
-        }
-    }
-    LatticeVolume { lattice: d.filter.lattice.clone(), dims, data }
 }
 
 /// The compute wrapper that evaluates `<name>_eval_grad` and `<name>_eval`
@@ -288,46 +256,6 @@ impl<'a> PointEvaluator<'a> {
     }
 }
 
-/// Random points where the whole support lies inside the volume.
-pub fn random_points(d: &Derivation, vol: &LatticeVolume, count: usize, seed: u64) -> Vec<[f32; 4]> {
-    let r = support_radius(d) as f64 + 1.0;
-    let mut rng = Rng(seed ^ 0xABCD);
-    (0..count)
-        .map(|_| {
-            let mut p = [0f32; 4];
-            for (i, pi) in p.iter_mut().take(3).enumerate() {
-                let n = vol.dims[i] as f64;
-                *pi = (r + rng.next_f64() * (n - 1.0 - 2.0 * r)) as f32;
-            }
-            p
-        })
-        .collect()
-}
-
-/// `f` of every item, in order, on every core (the exact evaluator is the
-/// slow side of every device check).
-pub fn par_map<T: Sync, R: Send>(items: &[T], f: impl Fn(&T) -> R + Sync) -> Vec<R> {
-    let threads = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
-    let chunk = items.len().div_ceil(threads).max(1);
-    std::thread::scope(|s| {
-        let handles: Vec<_> = items
-            .chunks(chunk)
-            .map(|c| {
-                let f = &f;
-                s.spawn(move || c.iter().map(f).collect::<Vec<R>>())
-            })
-            .collect();
-        handles.into_iter().flat_map(|h| h.join().expect("a worker of par_map panicked")).collect()
-    })
-}
-
-/// Exact (f64) evaluation at the points, on all cores.
-pub fn cpu_eval(d: &Derivation, vol: &LatticeVolume, points: &[[f32; 4]]) -> Vec<(f64, Vec<f64>)> {
-    let data = |j: &[i64]| vol.get(j) as f64;
-    let _ = d.f64_tables();
-    par_map(points, |p| d.eval_f64(&[p[0] as f64, p[1] as f64, p[2] as f64], &data))
-}
-
 pub fn verify(
     gpu: &Gpu,
     d: &Derivation,
@@ -394,30 +322,6 @@ pub(crate) fn device_volume(
         (FetchMode::Linear, _) => DeviceVolume::new_filtered(gpu, vol, layout)?,
         (FetchMode::Exact, _) => DeviceVolume::new(gpu, vol, layout)?,
     })
-}
-
-/// Points on and a rounding error either side of brick faces (edge
-/// `edge`): `base`'s points with one coordinate (cycling over the axes)
-/// moved to the nearest face inside the volume's interior range, then
-/// nudged by -1, 0 or +1 ulp.
-pub fn brick_face_points(d: &Derivation, vol: &LatticeVolume, base: &[[f32; 4]], edge: usize) -> Vec<[f32; 4]> {
-    let r = support_radius(d) as f32 + 1.0;
-    base.iter()
-        .enumerate()
-        .map(|(i, p)| {
-            let mut q = *p;
-            let a = i % 3;
-            let hi = vol.dims[a] as f32 - 1.0 - r;
-            let face = ((p[a] / edge as f32).round() * edge as f32).clamp(r, hi);
-            let face = if (face / edge as f32).fract() == 0.0 { face } else { p[a] };
-            q[a] = match (i / 3) % 3 {
-                0 => face.next_down(),
-                1 => face,
-                _ => face.next_up(),
-            };
-            q
-        })
-        .collect()
 }
 
 /// `eval` at `points` seeded random points of `vol`, chunk by chunk (so a
@@ -521,125 +425,4 @@ pub fn verify_fetch(
         passed,
         adapter: gpu.describe(),
     })
-}
-
-/// The data range of a volume (at least the smallest positive f32).
-pub fn data_range(vol: &LatticeVolume) -> f64 {
-    let (lo, hi) = vol.data.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
-    (hi - lo).max(f32::MIN_POSITIVE) as f64
-}
-
-/// Value tolerance: |GPU value - exact value| <= this times the data range.
-pub const VALUE_TOLERANCE: f64 = 1e-5;
-/// Gradient tolerance: |grad_gpu - grad_exact|_inf / max(|grad_exact|_inf, range) <= this.
-pub const GRADIENT_TOLERANCE: f64 = 1e-4;
-
-/// How far (in units of n . x) a point may be from the knot plane
-/// n . x = c and still be placed by the device in the piece on either side:
-/// `4 f32::EPSILON (|n|_1 |x|_max + |c|)`.
-///
-/// The points are f32 and the exact evaluator takes them exactly, but the
-/// device locates them with f32 arithmetic: the shift to the cube (x - z,
-/// exact), the map to the reference piece and the plane tests n . u <= b,
-/// each a short sum of integer multiples of coordinates. |n|_1 |x|_max bounds
-/// every partial sum of n . x (and of the local coordinates' forms) and |c|
-/// the constant it is compared with; each of the at most s + 1 = 4 rounded
-/// additions errs by at most eps/2 of that, so 4 eps is about twice the
-/// worst case for 3D, and still a band of ~1e-5 around each plane (a small
-/// fraction of the points, counted in the report).
-pub fn knot_tolerance(normal: &[i64], c: f64, x_max: f64) -> f64 {
-    let n1: f64 = normal.iter().map(|a| a.unsigned_abs() as f64).sum();
-    4.0 * f32::EPSILON as f64 * (n1 * x_max + c.abs())
-}
-
-/// The knot plane n . x = c nearest to x of every family the derivation's
-/// arrangement has, with |n . x - c| and [`knot_tolerance`] for it.
-pub fn nearest_knot_planes(d: &Derivation, x: &[f64]) -> Vec<(Vec<i64>, f64, f64, f64)> {
-    let x_max = x.iter().fold(0f64, |m, a| m.max(a.abs()));
-    d.arrangement
-        .families
-        .iter()
-        .map(|f| {
-            let (offset, period) = (f.offset.to_f64(), f.period as f64);
-            let v: f64 = f.normal.iter().zip(x).map(|(n, a)| *n as f64 * a).sum();
-            let c = offset + ((v - offset) / period).round() * period;
-            (f.normal.clone(), c, (v - c).abs(), knot_tolerance(&f.normal, c, x_max))
-        })
-        .collect()
-}
-
-/// Is x within [`knot_tolerance`] of a knot plane? Returns the largest
-/// such tolerance in x units (|n . x - c| / |n|_1 <= tol / |n|_1), or None.
-pub fn near_knot(d: &Derivation, x: &[f64]) -> Option<f64> {
-    nearest_knot_planes(d, x)
-        .into_iter()
-        .filter(|(_, _, dist, tol)| dist <= tol)
-        .map(|(n, _, _, tol)| tol / n.iter().map(|a| a.unsigned_abs() as f64).sum::<f64>())
-        .reduce(f64::max)
-}
-
-/// The running comparison of device values against the exact evaluator.
-#[derive(Clone, Debug, Default)]
-pub struct Tally {
-    pub data_range: f64,
-    pub max_abs: f64,
-    pub max_rel: f64,
-    pub points: usize,
-    pub near_knot_points: usize,
-    pub accepted_other_side: usize,
-}
-
-impl Tally {
-    pub fn new(data_range: f64) -> Tally {
-        Tally { data_range, ..Tally::default() }
-    }
-
-    /// (value error, relative gradient error) of one device result against
-    /// an exact value and gradient.
-    pub(crate) fn errors(&self, v: f32, g: &[f32; 4], ev: f64, eg: &[f64]) -> (f64, f64) {
-        let abs = (v as f64 - ev).abs().max((g[0] as f64 - ev).abs());
-        let gmax = eg.iter().fold(0f64, |m, x| m.max(x.abs()));
-        let diff = (0..3).fold(0f64, |m, i| m.max((g[i + 1] as f64 - eg[i]).abs()));
-        (abs, diff / gmax.max(self.data_range))
-    }
-
-    pub(crate) fn within(&self, (abs, rel): (f64, f64)) -> bool {
-        abs <= VALUE_TOLERANCE * self.data_range && rel <= GRADIENT_TOLERANCE
-    }
-
-    /// Compares device values and gradients at `pts` with the exact
-    /// evaluator. A point within [`knot_tolerance`] of a knot plane passes
-    /// when it matches the piece on any side of the planes it is near
-    /// ([`Derivation::eval_f64_pieces_near`]); every other point is held to
-    /// the exact evaluator's own piece, with the same tolerances.
-    pub fn check(&mut self, d: &Derivation, vol: &LatticeVolume, pts: &[[f32; 4]], values: &[f32], grads: &[[f32; 4]]) {
-        let exact = cpu_eval(d, vol, pts);
-        let data = |j: &[i64]| vol.get(j) as f64;
-        for (((p, v), g), (ev, eg)) in pts.iter().zip(values).zip(grads).zip(&exact) {
-            let mut err = self.errors(*v, g, *ev, eg);
-            let x = [p[0] as f64, p[1] as f64, p[2] as f64];
-            if let Some(tol) = near_knot(d, &x) {
-                self.near_knot_points += 1;
-                if !self.within(err) {
-                    let other = d
-                        .eval_f64_pieces_near(&x, &data, tol)
-                        .iter()
-                        .map(|(ov, og)| self.errors(*v, g, *ov, og))
-                        .find(|e| self.within(*e));
-                    if let Some(e) = other {
-                        self.accepted_other_side += 1;
-                        err = e;
-                    }
-                }
-            }
-            self.max_abs = self.max_abs.max(err.0);
-            self.max_rel = self.max_rel.max(err.1);
-        }
-        self.points += pts.len();
-    }
-
-    /// Every point within the value and gradient tolerances.
-    pub fn passed(&self) -> bool {
-        self.max_abs <= VALUE_TOLERANCE * self.data_range && self.max_rel <= GRADIENT_TOLERANCE
-    }
 }

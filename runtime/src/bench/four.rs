@@ -83,7 +83,7 @@ pub fn best_layout(d: &Derivation) -> Layout {
 /// point u is stored at u + U).
 fn sampled(d: &Derivation, n: usize, prefiltered: bool) -> (LatticeVolume4, f64, i64) {
     let s = spacing(d, n);
-    let reach = crate::verify::support_radius(d) as i64
+    let reach = crate::volume::support_radius(d) as i64
         + d.prefilter.taps.iter().flat_map(|(k, _)| k.iter().map(|x| x.abs())).max().unwrap_or(0)
         + 2;
     let u = (1.0 / s).ceil() as i64 + reach;
@@ -115,7 +115,7 @@ fn samples_inside(d: &Derivation, n: usize) -> usize {
     let m = (1.0 / spacing(d, n)).floor() as i64;
     let side = (2 * m + 1) as usize;
     let cells: Vec<usize> = (0..side.pow(2)).collect();
-    crate::verify::par_map(&cells, |&c| {
+    crate::par::par_map(&cells, |&c| {
         let (x, y) = ((c % side) as i64 - m, (c / side) as i64 - m);
         (-m..=m).flat_map(|z| (-m..=m).map(move |w| [x, y, z, w])).filter(|j| d.filter.lattice.contains(j)).count()
     })

@@ -6,15 +6,16 @@
 //! through wgpu's passthrough on the same volume and points. The check, the
 //! interleaved rounds and the statistics are the WGSL table's
 //! ([`super::compare_reference`]): a comparison whose values differ by
-//! [`REFERENCE_TOLERANCE`] of the data range or more is INVALID and not
+//! [`REFERENCE_TOLERANCE`](super::REFERENCE_TOLERANCE) of the data range or more is INVALID and not
 //! timed. A reported row, not a gate: a missing glslang, or an adapter
 //! without passthrough, gives a row that says so.
 
 use super::compare::{bench_volume, check, RAY_STEPS};
 use super::job::{timed_rounds, Job};
 use super::options::derive_filter;
+use super::rows::GlslRivalRow;
 use super::stats::{median, Ratio};
-use super::{BenchError, REFERENCE_TOLERANCE};
+use super::BenchError;
 use crate::gpu::Gpu;
 use crate::references::Reference;
 use crate::targets::{glslang, TargetError};
@@ -23,15 +24,11 @@ use crate::verify::{data_range, random_points};
 use crate::volume::DeviceVolume;
 use boxforge::back::{translate, Target, TranslateOptions};
 use boxforge::emit::{emit, EmitOptions, Layout};
-use serde::Serialize;
 
 /// Kim & Lee's bcc7 in GLSL as published (Figure 7's code and the slides'
 /// simplified symbolic formula, ÷ 384): `float kim_lee_bcc7(vec3 p_in)` and
 /// its own clamped fetch on `volume_tex`, set 0 binding 0.
 pub const KIM_LEE_BCC7_GLSL: &str = include_str!("../../references/kim_lee_bcc7.glsl");
-
-/// The heading of the GLSL subsection of "## Generated vs hand-written".
-pub const HEADING: &str = "### In GLSL (glslang → SPIR-V, passthrough)";
 
 /// Points per volume side of the comparison's random volume.
 const VOLUME_SIDE: usize = 64;
@@ -47,35 +44,6 @@ pub fn builtin() -> Vec<Reference> {
                 .into(),
         source: KIM_LEE_BCC7_GLSL.into(),
     }]
-}
-
-/// The generated GLSL timed beside a hand-written GLSL evaluation.
-#[derive(Clone, Debug, Serialize)]
-pub struct GlslRivalRow {
-    pub filter: String,
-    /// The generated function and how it became GLSL.
-    pub generated: String,
-    pub reference: String,
-    pub entry: String,
-    pub citation: String,
-    /// glslang's name and version (both sides), when it ran.
-    pub compiled_by: Option<String>,
-    pub points: usize,
-    /// Medians over rounds (None when not timed).
-    pub generated_evals_per_s: Option<f64>,
-    pub reference_evals_per_s: Option<f64>,
-    /// generated ÷ reference, per round, one evaluation per invocation.
-    pub ratio: Option<Ratio>,
-    /// generated ÷ reference in the ray-caster shape (`RAY_STEPS` (16)
-    /// evaluations per invocation), timed in the same rounds.
-    pub ray_ratio: Option<Ratio>,
-    pub max_abs_diff: Option<f64>,
-    pub data_range: f64,
-    pub rel_diff: Option<f64>,
-    /// The check passed; a row that failed it (or was skipped) is not timed.
-    pub agrees: bool,
-    /// Why the row is invalid or was skipped.
-    pub note: Option<String>,
 }
 
 /// A complete GLSL 4.50 compute shader around `library` that writes
@@ -204,49 +172,10 @@ fn compare_on(gpu: &Gpu, r: &Reference, side: usize, points: usize, rounds: usiz
     Ok(row)
 }
 
-/// The GLSL subsection (heading, method, table), ending with a blank line;
-/// empty when there are no rows.
-pub fn markdown(rows: &[GlslRivalRow]) -> String {
-    use std::fmt::Write;
-    if rows.is_empty() {
-        return String::new();
-    }
-    let mut s = String::new();
-    let _ = writeln!(
-        s,
-        "{HEADING}\n\nThe same comparison in the GLSL world: a hand-written reference as published in GLSL (runtime/references/*.glsl, embedded in the binary; each cites its source) beside the generated `<filter>_eval` translated into GLSL 4.50 by `boxforge::back::translate` (naga), each behind the same hand-written compute entry point (one evaluation and one write per invocation; the ray-caster shape with {RAY_STEPS} evaluations), both compiled by the same glslang to SPIR-V and run as they are through wgpu's passthrough, on the same random points of a random 64^3 volume, checked (max |generated - reference| < {REFERENCE_TOLERANCE:.0e} of the data range, else INVALID and not timed) and timed in the same interleaved rounds as the table above. Ratio: generated ÷ reference evals/s.\n"
-    );
-    let _ = writeln!(s, "| generated | reference | compiled by | generated evals/s | reference evals/s | ratio median [min..max] | tie? | ray: ratio | max \\|diff\\| (of range) | source |\n|---|---|---|---|---|---|---|---|---|---|");
-    for x in rows {
-        let (ratio, tie) = super::markdown::ratio_cells(&x.ratio);
-        let diff = match (x.max_abs_diff, x.rel_diff) {
-            (Some(a), Some(rel)) => format!("{a:.2e} ({rel:.1e})"),
-            _ => String::new(),
-        };
-        let status = match &x.note {
-            Some(n) if x.agrees => format!(" {n}"),
-            Some(n) => format!(" **{n}**"),
-            None => String::new(),
-        };
-        let _ = writeln!(
-            s,
-            "| `{}` | {} (`{}`) | {} | {} | {} | {ratio}{status} | {tie} | {} | {diff} | {} |",
-            x.generated,
-            x.reference,
-            x.entry,
-            x.compiled_by.as_deref().unwrap_or("(not compiled)"),
-            x.generated_evals_per_s.map(|v| format!("{v:.3e}")).unwrap_or_default(),
-            x.reference_evals_per_s.map(|v| format!("{v:.3e}")).unwrap_or_default(),
-            super::markdown::ratio_cells(&x.ray_ratio).0,
-            x.citation
-        );
-    }
-    s.push('\n');
-    s
-}
-
 #[cfg(test)]
 mod tests {
+    use super::super::markdown::{glsl_rivals_markdown as markdown, GLSL_HEADING as HEADING};
+    use super::super::REFERENCE_TOLERANCE;
     use super::*;
     use std::sync::OnceLock;
 

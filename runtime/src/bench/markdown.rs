@@ -1,6 +1,7 @@
 //! docs/BENCHMARKS.md from a report.
 
-use super::rows::TAG_LINEAR;
+use super::compare::RAY_STEPS;
+use super::rows::{GlslRivalRow, TAG_LINEAR};
 use super::stats::{self, Ratio};
 use super::{dvr, BenchReport, REFERENCE_TOLERANCE};
 
@@ -18,11 +19,7 @@ pub const REFERENCES_HEADING: &str = "## Generated vs hand-written";
 /// GLSL subsection of `glsl` rows when there are any), ending with a blank
 /// line. `measured_by`: the line saying which separate run measured it,
 /// when it is spliced into a file written by another run.
-pub fn references_section(
-    rows: &[super::ReferenceRow],
-    glsl: &[super::glsl_rivals::GlslRivalRow],
-    measured_by: Option<&str>,
-) -> String {
+pub fn references_section(rows: &[super::ReferenceRow], glsl: &[GlslRivalRow], measured_by: Option<&str>) -> String {
     use std::fmt::Write;
     let mut s = String::new();
     let _ = writeln!(
@@ -71,7 +68,7 @@ pub fn references_section(
         let _ = writeln!(s, "| (no references in this run) | | | | | | | | | | | | |");
     }
     s.push('\n');
-    s.push_str(&super::glsl_rivals::markdown(glsl));
+    s.push_str(&glsl_rivals_markdown(glsl));
     s
 }
 
@@ -220,6 +217,50 @@ pub const GPU_RECORD_END: &str = "<!-- gpu-record:end -->";
 /// The GPU record of an existing BENCHMARKS.md, if any.
 pub fn gpu_record_section(file: &str) -> Option<&str> {
     super::derive::section_between(file, GPU_RECORD_START, GPU_RECORD_END)
+}
+
+/// The heading of the GLSL subsection of "## Generated vs hand-written".
+pub const GLSL_HEADING: &str = "### In GLSL (glslang → SPIR-V, passthrough)";
+
+/// The GLSL subsection (heading, method, table), ending with a blank line;
+/// empty when there are no rows.
+pub fn glsl_rivals_markdown(rows: &[GlslRivalRow]) -> String {
+    use std::fmt::Write;
+    if rows.is_empty() {
+        return String::new();
+    }
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "{GLSL_HEADING}\n\nThe same comparison in the GLSL world: a hand-written reference as published in GLSL (runtime/references/*.glsl, embedded in the binary; each cites its source) beside the generated `<filter>_eval` translated into GLSL 4.50 by `boxforge::back::translate` (naga), each behind the same hand-written compute entry point (one evaluation and one write per invocation; the ray-caster shape with {RAY_STEPS} evaluations), both compiled by the same glslang to SPIR-V and run as they are through wgpu's passthrough, on the same random points of a random 64^3 volume, checked (max |generated - reference| < {REFERENCE_TOLERANCE:.0e} of the data range, else INVALID and not timed) and timed in the same interleaved rounds as the table above. Ratio: generated ÷ reference evals/s.\n"
+    );
+    let _ = writeln!(s, "| generated | reference | compiled by | generated evals/s | reference evals/s | ratio median [min..max] | tie? | ray: ratio | max \\|diff\\| (of range) | source |\n|---|---|---|---|---|---|---|---|---|---|");
+    for x in rows {
+        let (ratio, tie) = ratio_cells(&x.ratio);
+        let diff = match (x.max_abs_diff, x.rel_diff) {
+            (Some(a), Some(rel)) => format!("{a:.2e} ({rel:.1e})"),
+            _ => String::new(),
+        };
+        let status = match &x.note {
+            Some(n) if x.agrees => format!(" {n}"),
+            Some(n) => format!(" **{n}**"),
+            None => String::new(),
+        };
+        let _ = writeln!(
+            s,
+            "| `{}` | {} (`{}`) | {} | {} | {} | {ratio}{status} | {tie} | {} | {diff} | {} |",
+            x.generated,
+            x.reference,
+            x.entry,
+            x.compiled_by.as_deref().unwrap_or("(not compiled)"),
+            x.generated_evals_per_s.map(|v| format!("{v:.3e}")).unwrap_or_default(),
+            x.reference_evals_per_s.map(|v| format!("{v:.3e}")).unwrap_or_default(),
+            ratio_cells(&x.ray_ratio).0,
+            x.citation
+        );
+    }
+    s.push('\n');
+    s
 }
 
 #[cfg(test)]

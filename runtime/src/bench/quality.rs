@@ -153,7 +153,7 @@ pub fn smooth_convergence(gpu: &Gpu, d: &Derivation, edges: &[usize]) -> Result<
     let smooth = |x: [f64; 3]| (1.5 * x[0]).cos() * x[1].cos() * (0.5 * x[2]).cos();
     let mut errs = Vec::new();
     for &n in edges {
-        let r = crate::verify::support_radius(d);
+        let r = crate::volume::support_radius(d);
         let dims = [n + 2 * r + 2; 3];
         // Map the inner n cells onto [-1,1]: x = -1 + 2 (j - r - 1) / n.
         let off = (r + 1) as f64;

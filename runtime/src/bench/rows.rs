@@ -135,7 +135,7 @@ pub struct BenchReport {
     /// Generated vs hand-written (built-in references and --wgsl).
     pub references: Vec<ReferenceRow>,
     /// The same in GLSL: published GLSL beside the generated GLSL, both by glslang.
-    pub glsl_references: Vec<super::glsl_rivals::GlslRivalRow>,
+    pub glsl_references: Vec<GlslRivalRow>,
     pub rows: Vec<BenchRow>,
     pub gradient: Vec<GradientRow>,
     pub quality: Vec<QualityRow>,
@@ -154,4 +154,33 @@ pub struct GradientRow {
     pub speedup_ratio: Ratio,
     pub analytic_angle_deg: f64,
     pub central_angle_deg: f64,
+}
+
+/// The generated GLSL timed beside a hand-written GLSL evaluation.
+#[derive(Clone, Debug, Serialize)]
+pub struct GlslRivalRow {
+    pub filter: String,
+    /// The generated function and how it became GLSL.
+    pub generated: String,
+    pub reference: String,
+    pub entry: String,
+    pub citation: String,
+    /// glslang's name and version (both sides), when it ran.
+    pub compiled_by: Option<String>,
+    pub points: usize,
+    /// Medians over rounds (None when not timed).
+    pub generated_evals_per_s: Option<f64>,
+    pub reference_evals_per_s: Option<f64>,
+    /// generated ÷ reference, per round, one evaluation per invocation.
+    pub ratio: Option<Ratio>,
+    /// generated ÷ reference in the ray-caster shape (`RAY_STEPS` (16)
+    /// evaluations per invocation), timed in the same rounds.
+    pub ray_ratio: Option<Ratio>,
+    pub max_abs_diff: Option<f64>,
+    pub data_range: f64,
+    pub rel_diff: Option<f64>,
+    /// The check passed; a row that failed it (or was skipped) is not timed.
+    pub agrees: bool,
+    /// Why the row is invalid or was skipped.
+    pub note: Option<String>,
 }

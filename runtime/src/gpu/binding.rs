@@ -17,15 +17,16 @@ pub fn texture_3d_entry(binding: u32, visibility: wgpu::ShaderStages, filterable
     }
 }
 
-/// The binding of a sample texture stored in `format`: `texture_3d<f32>`
+/// The binding of a sample texture whose texels are `texels` (a sample
+/// format's [`texels`](crate::volume::SampleFormat::texels)): `texture_3d<f32>`
 /// (filterable when `filterable`), or `texture_3d<u32>` for u8 words.
 pub fn samples_texture_entry(
     binding: u32,
     visibility: wgpu::ShaderStages,
-    format: crate::volume::SampleFormat,
+    texels: boxforge::emit::Texels,
     filterable: bool,
 ) -> wgpu::BindGroupLayoutEntry {
-    match format.texels() {
+    match texels {
         boxforge::emit::Texels::Float => texture_3d_entry(binding, visibility, filterable),
         boxforge::emit::Texels::U8x4 => uint_texture_3d_entry(binding, visibility),
     }

@@ -5,8 +5,10 @@
 //! `eval_hessian`, with the 3D tolerances and the same acceptance of points
 //! within rounding of a knot plane.
 
+use super::exact::{near_knot, GRADIENT_TOLERANCE, VALUE_TOLERANCE};
 use super::hessian::HESSIAN_TOLERANCE;
-use super::{kernel, near_knot, Rng, VerifyError, VerifyReport, GRADIENT_TOLERANCE, VALUE_TOLERANCE};
+use super::inputs::Rng;
+use super::{kernel, VerifyError, VerifyReport};
 use crate::gpu::binding::storage_entry;
 use crate::gpu::Gpu;
 use crate::volume::{DeviceVolume4, LatticeVolume4};
@@ -21,7 +23,7 @@ const ROWS: usize = 7;
 
 /// Random data in [0, 1) at the lattice points of a 4D box big enough for the support.
 pub fn random_volume4(d: &Derivation, seed: u64) -> LatticeVolume4 {
-    let n = (2 * super::support_radius(d) + 6).next_multiple_of(2);
+    let n = (2 * crate::volume::support_radius(d) + 6).next_multiple_of(2);
     let dims = [n; 4];
     let mut rng = Rng(seed);
     let mut data = vec![0f32; n * n * n * n];
@@ -36,7 +38,7 @@ pub fn random_volume4(d: &Derivation, seed: u64) -> LatticeVolume4 {
 
 /// Random points where the whole support lies inside the volume.
 pub fn random_points4(d: &Derivation, vol: &LatticeVolume4, count: usize, seed: u64) -> Vec<[f32; 4]> {
-    let r = super::support_radius(d) as f64 + 1.0;
+    let r = crate::volume::support_radius(d) as f64 + 1.0;
     let mut rng = Rng(seed ^ 0x4D4D);
     (0..count)
         .map(|_| std::array::from_fn(|a| (r + rng.next_f64() * (vol.dims[a] as f64 - 1.0 - 2.0 * r)) as f32))
@@ -207,7 +209,7 @@ impl Tally4 {
     pub fn check(d: &Derivation, vol: &LatticeVolume4, pts: &[[f32; 4]], got: &[Got4], with_hessian: bool) -> Tally4 {
         let data = |j: &[i64]| vol.get(j) as f64;
         let _ = d.f64_tables();
-        let exact: Vec<SecondOrder> = super::par_map(pts, |p| d.eval_f64_hessian(&p.map(f64::from), &data));
+        let exact: Vec<SecondOrder> = crate::par::par_map(pts, |p| d.eval_f64_hessian(&p.map(f64::from), &data));
         let (lo, hi) = vol.data.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
         let range = (hi - lo).max(f32::MIN_POSITIVE) as f64;
         let mut t = Tally4 { data_range: range, ..Tally4::default() };

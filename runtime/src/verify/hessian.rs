@@ -5,7 +5,8 @@
 //! a plane passes when it matches the piece on either side (counted), never
 //! with a looser tolerance.
 
-use super::{kernel, near_knot, Tally, POINTS_PER_DISPATCH};
+use super::exact::{near_knot, Tally};
+use super::{kernel, POINTS_PER_DISPATCH};
 use crate::gpu::{Gpu, GpuError};
 use crate::volume::{DeviceVolume, LatticeVolume};
 use boxforge::derive::Derivation;
@@ -118,7 +119,7 @@ impl<'a> HessianEvaluator<'a> {
 pub fn cpu_eval_hessian(d: &Derivation, vol: &LatticeVolume, points: &[[f32; 4]]) -> Vec<SecondOrder> {
     let data = |j: &[i64]| vol.get(j) as f64;
     let _ = d.f64_tables();
-    super::par_map(points, |p| d.eval_f64_hessian(&[p[0] as f64, p[1] as f64, p[2] as f64], &data))
+    crate::par::par_map(points, |p| d.eval_f64_hessian(&[p[0] as f64, p[1] as f64, p[2] as f64], &data))
 }
 
 /// The running comparison of device Hessians against the exact evaluator.

@@ -2,7 +2,8 @@
 //! emitted ([`crate::targets`]), against the exact evaluator with the same
 //! points, tolerances and near-knot rule as the WGSL module.
 
-use super::{check_request, data_range, device_volume, random_volume, tally_points, VerifyError, VerifyReport};
+use super::inputs::{data_range, random_volume};
+use super::{check_request, device_volume, tally_points, VerifyError, VerifyReport};
 use crate::gpu::Gpu;
 use crate::targets::{Runner, TargetEvaluator};
 use boxforge::back::{translate, Target, TranslateOptions};

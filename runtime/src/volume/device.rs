@@ -215,7 +215,7 @@ impl DeviceVolume {
             },
             count: None,
         };
-        let mut e = vec![samples_texture_entry(first, visibility, self.format, self.filtered())];
+        let mut e = vec![samples_texture_entry(first, visibility, self.format.texels(), self.filtered())];
         match self.layout {
             Layout::Embedded => {}
             Layout::Packed => e.push(uniform(first + 1)),

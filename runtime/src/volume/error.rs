@@ -95,6 +95,11 @@ pub enum VolumeError {
     Cache { path: PathBuf, source: std::io::Error },
 }
 
+/// The [`VolumeError::Io`] of a file that could not be read.
+pub(crate) fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> VolumeError + '_ {
+    move |source| VolumeError::Io { path: path.to_path_buf(), source }
+}
+
 /// Number of samples of a box, or an error for zero or overflowing dims.
 pub(crate) fn checked_count(dims: [usize; 3]) -> Result<usize, VolumeError> {
     if dims.contains(&0) {

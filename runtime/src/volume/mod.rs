@@ -5,7 +5,10 @@
 //! `synthetic.rs` (the Marschner-Lobb test signal), `series.rs` (time
 //! series of volumes, 4D data), `convert.rs` (lattice
 //! (cc/bcc/fcc) sample sets from Cartesian volumes) and `packing.rs` (the
-//! coset-packed storage layout) (docs/BOX_SPLINES.md §1, §5).
+//! coset-packed storage layout) (docs/BOX_SPLINES.md §1, §5); `stream.rs`
+//! maps a file and reads it box by box, with the stored sample types in
+//! `stored.rs`, its own NIfTI-1 header reader in `nifti_header.rs` and the
+//! `.nii.gz` cache in `gz_cache.rs`.
 //!
 //! Nothing here panics on bad input: files, specs and hand-built structs with
 //! inconsistent fields all come back as [`VolumeError`]s (or, for the
@@ -19,14 +22,17 @@ mod device;
 mod error;
 mod format;
 mod four;
+mod gz_cache;
 #[cfg(feature = "nifti")]
 mod nifti;
+mod nifti_header;
 #[cfg(not(feature = "nifti"))]
 mod nifti_off;
 mod packing;
 mod raw;
 mod series;
 mod source;
+mod stored;
 mod stream;
 mod synthetic;
 #[cfg(test)]
@@ -37,14 +43,34 @@ pub use device::{DeviceVolume, VolumeOptions, DEFAULT_HALO};
 pub use error::VolumeError;
 pub use format::SampleFormat;
 pub use four::{DeviceVolume4, LatticeVolume4};
+pub use gz_cache::default_cache_dir;
 pub use packing::PackedVolume;
 pub use raw::{parse_raw_spec, RawType};
 pub use series::{marschner_lobb_drift, ml_drift_frequency, VolumeSeries};
 pub use source::{check_box_len, BrickSource};
-pub use stream::{default_cache_dir, MappedVolume};
+pub use stream::MappedVolume;
 pub use synthetic::{marschner_lobb, marschner_lobb_grad, marschner_lobb_hessian, ml_position};
 
 use error::checked_count;
+
+/// How far a filter's support reaches from a point, in lattice units along
+/// each axis, rounded up: the largest half-width of the generator's
+/// zonotope ([`SplineFacts::support_half_width`] along each axis). The
+/// margin the renderers keep around a volume's box, and the room the
+/// device checks leave inside theirs.
+///
+/// [`SplineFacts::support_half_width`]: boxforge::derive::spline::SplineFacts::support_half_width
+pub fn support_radius(d: &boxforge::derive::Derivation) -> usize {
+    (0..d.facts.dim)
+        .map(|i| {
+            let axis: Vec<i64> = (0..d.facts.dim).map(|j| i64::from(i == j)).collect();
+            let half = d.facts.support_half_width(&axis);
+            let floor = half.floor_i64().expect("a support's half-width is a small rational");
+            (floor + i64::from(!half.is_integer())) as usize
+        })
+        .max()
+        .unwrap_or(1)
+}
 
 /// A scalar volume on a Cartesian grid, x fastest: value(i,j,k) = data[i + nx*(j + ny*k)].
 #[derive(Clone, Debug, PartialEq)]

@@ -187,7 +187,7 @@ fn filter_entry(d: &Derivation, layouts: &[Layout]) -> Value {
             "cosets": cosets,
         },
         "degree": d.facts.degree,
-        "support_radius": crate::verify::support_radius(d),
+        "support_radius": crate::volume::support_radius(d),
         "view_dependent": f.view_dependent,
         "shaders": shaders,
     })

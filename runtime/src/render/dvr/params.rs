@@ -29,7 +29,7 @@ pub struct DvrParams {
 
 /// The uniform values of a DVR image.
 pub fn dvr_params(d: &Derivation, vol: &LatticeVolume, table: &Tf1d, pi_size: usize, o: &DvrOptions) -> DvrParams {
-    dvr_params_for(crate::verify::support_radius(d), vol.dims, table, pi_size, o)
+    dvr_params_for(crate::volume::support_radius(d), vol.dims, table, pi_size, o)
 }
 
 /// [`dvr_params`] for a volume of `dims` samples and a filter whose support

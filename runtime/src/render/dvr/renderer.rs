@@ -131,7 +131,7 @@ impl DvrRenderer {
         Ok(DvrRenderer {
             gpu: gpu.clone(),
             look,
-            radius: crate::verify::support_radius(d),
+            radius: crate::volume::support_radius(d),
             dims: volume.dims,
             pi_size: pi.as_ref().map_or(2, |p| p.size),
             empty_blocks,

@@ -208,7 +208,7 @@ fn four_dvr_main(@builtin(global_invocation_id) gid: vec3<u32>) {{
 /// The valid box of a 4D volume's space: the points whose spatial support
 /// lies inside the samples (lattice coordinates).
 pub fn valid_box(d: &Derivation, vol: &LatticeVolume4) -> ([f32; 3], [f32; 3]) {
-    let r = crate::verify::support_radius(d) as f32;
+    let r = crate::volume::support_radius(d) as f32;
     let lo = [r; 3];
     let hi = std::array::from_fn(|a| (vol.dims[a] as f32 - 1.0 - r).max(r));
     (lo, hi)
@@ -355,7 +355,7 @@ fn cpu_frame(
     let (blo, bhi) = (lo.map(f64::from), hi.map(f64::from));
     let (w, h) = (o.width as usize, o.height as usize);
     let pixels: Vec<usize> = (0..w * h).collect();
-    let rgba = crate::verify::par_map(&pixels, |&i| {
+    let rgba = crate::par::par_map(&pixels, |&i| {
         let (px, py) = (i % w, i / w);
         let ndc = [(px as f64 + 0.5) / w as f64 * 2.0 - 1.0, 1.0 - (py as f64 + 0.5) / h as f64 * 2.0];
         let org: [f64; 3] = std::array::from_fn(|a| eye[a] + right[a] * ndc[0] + up[a] * ndc[1]);

@@ -135,7 +135,7 @@ pub(crate) fn d3(a: [f32; 4]) -> DVec3 {
 
 /// [`valid_box`] as glam vectors.
 fn valid_box_vec(d: &Derivation, vol: &LatticeVolume) -> (Vec3, Vec3) {
-    box_of(crate::verify::support_radius(d), vol.dims)
+    box_of(crate::volume::support_radius(d), vol.dims)
 }
 
 /// The valid box of a volume of `dims` samples for a support of `radius` cells.
@@ -154,7 +154,7 @@ pub fn valid_box(d: &Derivation, vol: &LatticeVolume) -> ([f32; 3], [f32; 3]) {
 pub use crate::render::camera::view_direction;
 
 pub fn ray_params(d: &Derivation, vol: &LatticeVolume, o: &RenderOptions) -> RayParams {
-    ray_params_for(crate::verify::support_radius(d), vol.dims, o)
+    ray_params_for(crate::volume::support_radius(d), vol.dims, o)
 }
 
 /// [`ray_params`] for a volume of `dims` samples and a filter whose support

@@ -142,7 +142,7 @@ impl IsoRenderer {
             gpu: gpu.clone(),
             name,
             options,
-            radius: crate::verify::support_radius(d),
+            radius: crate::volume::support_radius(d),
             dims: volume.dims,
             pipeline,
             caster_layout,

@@ -60,7 +60,7 @@ pub fn brick_row_bounds(
     let shader = gpu.compile(&module.file_name, &module.source)?;
     let dev = &gpu.device;
     let entries = [
-        samples_texture_entry(0, wgpu::ShaderStages::COMPUTE, format, false),
+        samples_texture_entry(0, wgpu::ShaderStages::COMPUTE, format.texels(), false),
         storage_entry(1, false),
         gpu.params_entry(2),
     ];
@@ -162,7 +162,7 @@ pub fn brick_row_bounds(
                 let job: [i32; 8] = [h, h, h, 0, count[0] as i32, count[1] as i32, count[2] as i32, block as i32];
                 gpu.queue.write_buffer(&job_buf, 0, bytemuck::cast_slice(&job));
                 gpu.dispatch("slab bounds", &pipeline, &[&bg], ((total as u32).div_ceil(64), 1, 1))?;
-                super::pool::trace_memory("slab bounded");
+                crate::memory::trace_memory("slab bounded");
                 let raw: Vec<f32> = bytemuck::cast_slice(&gpu.read_buffer(&out)?[..total * 8]).to_vec();
                 for bz in 0..count[2] {
                     for by in 0..count[1] {

@@ -7,10 +7,11 @@
 //! the in-core caster's, so the frame equals the in-core frame, and bricks
 //! only skipped segments cross are never uploaded.
 
-use super::pool::{trace_memory, BrickPool, Reserve};
+use super::pool::{BrickPool, Reserve};
 use super::{check_pixels, occupied, PagedOptions, PagedStats};
 use crate::gpu::binding::layout_entries_from;
 use crate::gpu::{Gpu, GpuError};
+use crate::memory::trace_memory;
 use crate::render::blocks::blocks_per_axis;
 use crate::render::dvr::caster::{CasterParts, DvrCaster, Extra};
 use crate::render::dvr::transfer::Tf1d;
@@ -94,7 +95,7 @@ impl PagedDvrRenderer {
             gpu.storage_buffer("paged dvr resume", &vec![0u8; (options.max_pixels * RESUME_BYTES) as usize], true);
         let parts = CasterParts {
             label: "paged dvr",
-            radius: crate::verify::support_radius(d),
+            radius: crate::volume::support_radius(d),
             dims: pool.dims,
             bounds,
             samples: (pool.samples_layout.clone(), pool.samples.clone()),

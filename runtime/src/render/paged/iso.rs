@@ -2,10 +2,11 @@
 //! (`paged`), suspended where a ray needs a brick the pool lacks and resumed
 //! in the next pass, over the shared [`BrickPool`].
 
-use super::pool::{trace_memory, BrickPool, Reserve};
+use super::pool::{BrickPool, Reserve};
 use super::{occupied, PagedOptions, PagedStats};
 use crate::gpu::binding::{entries_for, layout_entries_from};
 use crate::gpu::{Gpu, GpuError};
+use crate::memory::trace_memory;
 use crate::render::blocks::{self, SkipMap};
 use crate::render::iso::{ray_params_for, Frame, RayParams, RenderOptions};
 use crate::render::RenderError;
@@ -90,7 +91,7 @@ impl PagedIsoRenderer {
         Ok(PagedIsoRenderer {
             gpu: gpu.clone(),
             options,
-            radius: crate::verify::support_radius(d),
+            radius: crate::volume::support_radius(d),
             pool,
             pipeline,
             bindings,

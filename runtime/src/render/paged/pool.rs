@@ -10,6 +10,7 @@ use super::bounds;
 use super::cache::{requested_bricks, BrickCache};
 use super::{human, PagedOptions, PagedStats, MAX_PASSES};
 use crate::gpu::{Gpu, GpuError};
+use crate::memory::trace_memory;
 use crate::render::RenderError;
 use crate::volume::{slot_grid, BrickShape, BrickSource, SampleFormat};
 use boxforge::derive::Derivation;
@@ -53,18 +54,6 @@ pub(crate) struct BrickPool {
     pub bounds_cached: bool,
     /// Passes rendered so far, over all frames (the cache's clock).
     pass_stamp: u64,
-}
-
-/// Prints the process's memory at a step of the set-up when
-/// `BOXFORGE_MEMORY_TRACE` is set (how the out-of-core bound was tracked down).
-pub(crate) fn trace_memory(what: &str) {
-    if std::env::var_os("BOXFORGE_MEMORY_TRACE").is_some() {
-        eprintln!(
-            "{what}: RSS {:?} HWM {:?}",
-            crate::memory::current_resident_bytes(),
-            crate::memory::peak_resident_bytes()
-        );
-    }
 }
 
 fn fail(m: String) -> RenderError {
@@ -223,7 +212,7 @@ impl BrickPool {
         let samples_layout = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("paged samples"),
             entries: &[
-                crate::gpu::binding::samples_texture_entry(0, wgpu::ShaderStages::COMPUTE, format, false),
+                crate::gpu::binding::samples_texture_entry(0, wgpu::ShaderStages::COMPUTE, format.texels(), false),
                 crate::gpu::binding::uniform_entry(1),
                 crate::gpu::binding::texture_entry(2),
             ],

@@ -50,7 +50,7 @@ impl PermCache {
         let look = DvrLook { preintegrate: pi.is_some(), ..look_of(o) };
         let parts = CasterParts {
             label: "dvr perm",
-            radius: crate::verify::support_radius(scene.d),
+            radius: crate::volume::support_radius(scene.d),
             dims: scene.dv.dims,
             bounds: scene.bounds.clone(),
             samples: (scene.bgl_s.clone(), scene.bg_s.clone()),

@@ -60,7 +60,7 @@ impl PermRenderer {
         let bounds = block_bounds(gpu, &build, &d.filter.name, volume, volume.dims, look.block)?;
         let parts = CasterParts {
             label: "dvr perm",
-            radius: crate::verify::support_radius(d),
+            radius: crate::volume::support_radius(d),
             dims: volume.dims,
             bounds,
             samples: (samples_layout, samples),

@@ -211,7 +211,7 @@ impl PtRenderer {
             gpu: gpu.clone(),
             complexes,
             masks,
-            radius: crate::verify::support_radius(d),
+            radius: crate::volume::support_radius(d),
             dims: vol.dims,
             base,
             last_params: None,

@@ -83,7 +83,7 @@ impl SchemeRenderer {
         });
         let parts = CasterParts {
             label: "dvr",
-            radius: crate::verify::support_radius(&base),
+            radius: crate::volume::support_radius(&base),
             dims: volume.dims,
             bounds,
             samples: (samples_layout, samples),
