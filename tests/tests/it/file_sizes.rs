@@ -46,7 +46,7 @@ fn the_size_check_finds_a_long_file() {
     std::fs::write(dir.join("src/long.rs"), "//\n".repeat(MAX_LINES + 1)).unwrap();
     std::fs::write(dir.join("src/short.rs"), "//\n".repeat(MAX_LINES)).unwrap();
     std::fs::write(dir.join("src/target/built.rs"), "//\n".repeat(2 * MAX_LINES)).unwrap();
-    let long = too_long(&[dir.clone()], MAX_LINES);
+    let long = too_long(std::slice::from_ref(&dir), MAX_LINES);
     std::fs::remove_dir_all(&dir).unwrap();
     assert_eq!(long, vec![(MAX_LINES + 1, dir.join("src/long.rs"))]);
 }

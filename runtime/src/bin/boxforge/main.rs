@@ -4,6 +4,7 @@
 #[macro_use]
 mod common;
 mod bench;
+mod choices;
 mod demo;
 mod generate;
 mod inspect;

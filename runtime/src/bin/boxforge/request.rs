@@ -5,7 +5,7 @@
 //! passed in). The library's own checks ([`boxforge_runtime::limits`]) name
 //! no flags: [`volume_limit`] words them for the command line.
 
-use crate::render::{CacheArg, ModeArg, RendererArg};
+use crate::choices::{CacheArg, ModeArg, RendererArg};
 use boxforge::derive::Derivation;
 use boxforge::emit::Layout;
 use boxforge_runtime::limits::{self, LimitError};

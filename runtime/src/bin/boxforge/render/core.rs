@@ -3,10 +3,11 @@
 //! volume loaded and one frame drawn in core, written to PNG with a line
 //! of statistics.
 
-use super::checked::{DvrLook, Frame, Look, ThreeRequest};
+use super::checked::{DvrLook, Look, ThreeRequest};
+use super::look::{default_ramp, dvr_options, named_tf};
 use super::{dvr, paged};
 use crate::common::Failure;
-use crate::request::{self, TfChoice};
+use crate::request;
 use boxforge::derive::Derivation;
 use boxforge_runtime::gpu::Gpu;
 use boxforge_runtime::render::dvr::transfer::TransferFunction;
@@ -14,39 +15,6 @@ use boxforge_runtime::render::dvr::DvrOptions;
 use boxforge_runtime::render::iso::{self as render, RenderOptions};
 use boxforge_runtime::scene::{self, Conversion};
 use boxforge_runtime::volume::{BrickShape, SampleFormat, VolumeOptions};
-
-/// The DVR options of the request for its frame, in core and out of core alike.
-pub fn dvr_options(r: &ThreeRequest, look: &DvrLook) -> DvrOptions {
-    let f: &Frame = &r.frame;
-    DvrOptions {
-        width: f.size,
-        height: f.size,
-        azimuth: f.azimuth,
-        elevation: f.elevation,
-        perspective: f.perspective,
-        skip: r.skip,
-        skip_map: r.skip_map,
-        preintegrate: look.preintegrate,
-        step: f.step,
-        ..Default::default()
-    }
-}
-
-/// `--tf`: the named transfer function, or None for the default ramp
-/// (chosen once the data's range is known).
-pub fn named_tf(tf: &TfChoice) -> Result<Option<TransferFunction>, Failure> {
-    match tf {
-        TfChoice::Named(name) => Ok(Some(TransferFunction::load(name).map_err(|e| Failure(format!("--tf {e}")))?)),
-        TfChoice::Ramp => Ok(None),
-    }
-}
-
-/// The default ramp over [lo, hi], announced on stderr.
-pub fn default_ramp(lo: f32, hi: f32) -> TransferFunction {
-    let ramp = TransferFunction::ramp(lo as f64, hi as f64);
-    eprintln!("no --tf given: using the default transfer function, a {} (give --tf to choose one)", ramp.name);
-    ramp
-}
 
 pub fn run(r: &ThreeRequest) -> Result<(), Failure> {
     let f = &r.frame;

@@ -12,8 +12,10 @@ mod checked;
 mod core;
 mod dvr;
 mod four;
+mod look;
 mod paged;
 
+pub use crate::choices::{CacheArg, ModeArg, RendererArg};
 use crate::common::{Failure, FormatArg, LayoutArg};
 use boxforge_runtime::render::iso::{HitMode, ShadeMode};
 use checked::RenderRequest;
@@ -151,27 +153,6 @@ pub struct RenderArgs {
     frames: Option<usize>,
     #[arg(long, default_value = "out.png")]
     out: std::path::PathBuf,
-}
-
-/// `--mode`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum ModeArg {
-    Iso,
-    Dvr,
-}
-
-/// `--cache`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum CacheArg {
-    None,
-    Perm,
-}
-
-/// `--renderer`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum RendererArg {
-    Raycast,
-    Pt,
 }
 
 /// `--shade`.

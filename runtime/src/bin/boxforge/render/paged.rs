@@ -43,10 +43,10 @@ pub fn run(r: &ThreeRequest, p: &PagedRequest, d: &Derivation, tf: Option<Transf
                 None => {
                     // No --tf: the default ramp over the samples' range (one pass over the source).
                     let (lo, hi) = source.sample_range().map_err(|e| Failure(e.to_string()))?;
-                    super::core::default_ramp(lo, hi)
+                    super::look::default_ramp(lo, hi)
                 }
             };
-            let o = super::core::dvr_options(r, look);
+            let o = super::look::dvr_options(r, look);
             let look = DvrLook::from(&o);
             Paged::Dvr(tf.table(), look, o)
         }
