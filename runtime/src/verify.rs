@@ -7,11 +7,11 @@ use crate::volume::LatticeVolume;
 use crate::volume::{BrickShape, DeviceVolume, VolumeOptions};
 use boxforge::derive::Derivation;
 use boxforge::emit::{emit, Bounds, EmitOptions, EvalForm, FetchMode, Layout, Variant};
-use serde::Serialize;
 
 pub mod four;
 pub mod hessian;
 pub mod kernel;
+#[cfg(feature = "targets")]
 pub mod target;
 
 /// Why a verification (or an evaluation on the device) could not run.
@@ -30,11 +30,13 @@ pub enum VerifyError {
     #[error("the points count must be at least 1")]
     NoPoints,
     /// A translation that could not be run (`verify --target`).
+    #[cfg(feature = "targets")]
     #[error(transparent)]
     Target(#[from] crate::targets::TargetError),
 }
 
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug)]
+#[cfg_attr(feature = "files", derive(serde::Serialize))]
 pub struct VerifyReport {
     pub filter: String,
     pub layout: Layout,

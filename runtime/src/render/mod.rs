@@ -15,6 +15,7 @@ pub mod paged;
 pub mod perm;
 pub mod present;
 pub mod pt;
+#[cfg(feature = "references")]
 pub mod schemes;
 
 pub use camera::{Camera, FrameCamera, HostDepth, Target, HOST_DEPTH_FORMATS};

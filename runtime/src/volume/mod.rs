@@ -27,6 +27,7 @@ mod packing;
 mod raw;
 mod series;
 mod source;
+#[cfg(feature = "files")]
 mod stream;
 mod synthetic;
 #[cfg(test)]
@@ -41,6 +42,7 @@ pub use packing::PackedVolume;
 pub use raw::{parse_raw_spec, RawType};
 pub use series::{marschner_lobb_drift, ml_drift_frequency, VolumeSeries};
 pub use source::{check_box_len, BrickSource};
+#[cfg(feature = "files")]
 pub use stream::{default_cache_dir, MappedVolume};
 pub use synthetic::{marschner_lobb, marschner_lobb_grad, marschner_lobb_hessian, ml_position};
 

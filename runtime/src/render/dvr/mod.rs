@@ -45,7 +45,9 @@ pub mod transfer;
 pub use cpu::{cpu_render, rms};
 pub use params::{dvr_params, DvrParams};
 pub use renderer::{DvrLook, DvrRenderer};
-pub(crate) use scene::{caster_entries, Custom};
+pub(crate) use scene::caster_entries;
+#[cfg(feature = "references")]
+pub(crate) use scene::Custom;
 pub use scene::{render, DvrScene};
 pub use skip::{empty_flags, skip_distances, skip_flags, widen_bounds};
 
@@ -208,6 +210,7 @@ pub(crate) fn shader_source_with(d: &Derivation, module: &EmitOptions, lookup: b
 }
 
 /// The emitted filter module (fetch, eval, eval_grad, min/max kernel).
+#[cfg(any(test, feature = "references"))]
 pub(crate) fn filter_module(d: &Derivation, layout: Layout) -> Result<String, GpuError> {
     filter_module_with(d, &module_options(layout))
 }
