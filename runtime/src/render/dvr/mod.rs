@@ -176,14 +176,10 @@ pub(crate) fn dvr_template_paged(name: &str) -> String {
 }
 
 fn dvr_template_full(name: &str, lookup: bool, host_depth: bool, curvature: Option<f32>, paged: bool) -> String {
-    let mut env = minijinja::Environment::new();
-    env.add_template("dvr", include_str!("../../../../templates/dvr.wgsl.j2")).expect("template");
-    env.add_template("paged", include_str!("../../../../templates/paged.wgsl.j2")).expect("template");
-    let text = env
-        .get_template("dvr")
-        .unwrap()
-        .render(minijinja::context! { name => name, perm => lookup, host_depth => host_depth, curvature => curvature.is_some(), paged => paged })
-        .expect("render");
+    let text = crate::render::templates::render(
+        "dvr",
+        minijinja::context! { name => name, perm => lookup, host_depth => host_depth, curvature => curvature.is_some(), paged => paged },
+    );
     match curvature {
         Some(r) => format!("{text}{}", crate::render::iso::curvature::curvature_tf_wgsl(name, r)),
         None => text,
