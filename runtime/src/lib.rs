@@ -15,6 +15,7 @@
 //! * [`bench`](mod@bench), `pictures`, `web` (features): what the `boxforge` CLI measures,
 //!   draws and serves.
 
+#[cfg(feature = "bench")]
 pub mod bench;
 pub mod gpu;
 pub mod limits;
@@ -24,9 +25,11 @@ pub mod par;
 pub mod pictures;
 pub mod prefilter;
 pub mod progress;
+#[cfg(feature = "references")]
 pub mod references;
 pub mod render;
 pub mod scene;
+#[cfg(feature = "targets")]
 pub mod targets;
 pub mod verify;
 pub mod volume;

@@ -36,7 +36,7 @@ pub fn release_free_heap() {
     // SAFETY: malloc_trim only walks and shrinks the allocator's own free
     // lists; it takes no pointers from us.
     unsafe {
-        libc::malloc_trim(0);
+        glibc::malloc_trim(0);
     }
 }
 
@@ -50,7 +50,7 @@ pub fn map_large_allocations() {
     #[cfg(all(target_os = "linux", target_env = "gnu"))]
     // SAFETY: mallopt only changes the allocator's tuning parameters.
     unsafe {
-        libc::mallopt(libc::M_MMAP_THRESHOLD, 1 << 20);
+        glibc::mallopt(glibc::M_MMAP_THRESHOLD, 1 << 20);
     }
 }
 
@@ -67,7 +67,23 @@ pub fn one_heap_arena() {
     #[cfg(all(target_os = "linux", target_env = "gnu"))]
     // SAFETY: mallopt only changes the allocator's tuning parameters.
     unsafe {
-        libc::mallopt(libc::M_ARENA_MAX, 1);
+        glibc::mallopt(glibc::M_ARENA_MAX, 1);
+    }
+}
+
+/// The three glibc allocator calls above, declared here rather than taken
+/// from the `libc` crate: a host of the library should not pay a dependency
+/// for two functions. Signatures and constants as glibc's `<malloc.h>`
+/// declares them (`int malloc_trim(size_t)`, `int mallopt(int, int)`,
+/// `M_MMAP_THRESHOLD` -3, `M_ARENA_MAX` -8); other C libraries lack them,
+/// hence the cfg.
+#[cfg(all(target_os = "linux", target_env = "gnu"))]
+mod glibc {
+    pub const M_MMAP_THRESHOLD: i32 = -3;
+    pub const M_ARENA_MAX: i32 = -8;
+    extern "C" {
+        pub fn malloc_trim(pad: usize) -> i32;
+        pub fn mallopt(param: i32, value: i32) -> i32;
     }
 }
 

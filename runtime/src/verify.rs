@@ -12,13 +12,13 @@ use boxforge::derive::Derivation;
 use boxforge::emit::{emit, Bounds, EmitOptions, EvalForm, FetchMode, Layout, Variant};
 pub use exact::{cpu_eval, knot_tolerance, near_knot, nearest_knot_planes, Tally, GRADIENT_TOLERANCE, VALUE_TOLERANCE};
 pub use inputs::{brick_face_points, data_range, random_points, random_volume, Rng};
-use serde::Serialize;
 
 pub mod exact;
 pub mod four;
 pub mod hessian;
 pub mod inputs;
 pub mod kernel;
+#[cfg(feature = "targets")]
 pub mod target;
 
 /// Why a verification (or an evaluation on the device) could not run.
@@ -37,11 +37,13 @@ pub enum VerifyError {
     #[error("the points count must be at least 1")]
     NoPoints,
     /// A translation that could not be run (`verify --target`).
+    #[cfg(feature = "targets")]
     #[error(transparent)]
     Target(#[from] crate::targets::TargetError),
 }
 
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug)]
+#[cfg_attr(feature = "files", derive(serde::Serialize))]
 pub struct VerifyReport {
     pub filter: String,
     pub layout: Layout,

@@ -15,7 +15,9 @@ pub mod paged;
 pub mod perm;
 pub mod present;
 pub mod pt;
+#[cfg(feature = "references")]
 pub mod schemes;
+mod templates;
 
 pub use camera::{Camera, FrameCamera, HostDepth, Target, HOST_DEPTH_FORMATS};
 pub use dvr::{DvrLook, DvrRenderer};

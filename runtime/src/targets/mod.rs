@@ -20,13 +20,17 @@ pub mod vulkan;
 pub mod gl;
 
 use crate::gpu::{Gpu, GpuError};
-use crate::volume::{DeviceVolume, LatticeVolume};
+use crate::volume::DeviceVolume;
+#[cfg(feature = "gl-run")]
+use crate::volume::LatticeVolume;
 use boxforge::back::{BackError, Role, Target, Translated};
+#[cfg(feature = "gl-run")]
 use boxforge::emit::Layout;
 
 /// Where a translation runs.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
-#[serde(rename_all = "lowercase")]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "files", derive(serde::Serialize))]
+#[cfg_attr(feature = "files", serde(rename_all = "lowercase"))]
 pub enum Runner {
     /// The wgpu device (lavapipe here), SPIR-V by passthrough.
     Vulkan,

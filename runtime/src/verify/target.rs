@@ -9,15 +9,15 @@ use crate::targets::{Runner, TargetEvaluator};
 use boxforge::back::{translate, Target, TranslateOptions};
 use boxforge::derive::Derivation;
 use boxforge::emit::{emit, Bounds, EmitOptions, FetchMode, Layout, Variant};
-use serde::Serialize;
 
 /// A [`VerifyReport`] of a translation: which language, where it ran, and
 /// what compiled it (in `report.adapter`).
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug)]
+#[cfg_attr(feature = "files", derive(serde::Serialize))]
 pub struct TargetVerifyReport {
     pub target: Target,
     pub runner: Runner,
-    #[serde(flatten)]
+    #[cfg_attr(feature = "files", serde(flatten))]
     pub report: VerifyReport,
 }
 

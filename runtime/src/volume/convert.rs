@@ -52,6 +52,7 @@ impl Membership {
     }
 
     /// Bytes of the table (one bool per residue class).
+    #[cfg(feature = "files")]
     pub(super) fn table_bytes(&self) -> usize {
         self.table.len()
     }

@@ -22,9 +22,11 @@ mod device;
 mod error;
 mod format;
 mod four;
+#[cfg(feature = "files")]
 mod gz_cache;
 #[cfg(feature = "nifti")]
 mod nifti;
+#[cfg(feature = "files")]
 mod nifti_header;
 #[cfg(not(feature = "nifti"))]
 mod nifti_off;
@@ -32,7 +34,9 @@ mod packing;
 mod raw;
 mod series;
 mod source;
+#[cfg(feature = "files")]
 mod stored;
+#[cfg(feature = "files")]
 mod stream;
 mod synthetic;
 #[cfg(test)]
@@ -43,11 +47,13 @@ pub use device::{DeviceVolume, VolumeOptions, DEFAULT_HALO};
 pub use error::VolumeError;
 pub use format::SampleFormat;
 pub use four::{DeviceVolume4, LatticeVolume4};
+#[cfg(feature = "files")]
 pub use gz_cache::default_cache_dir;
 pub use packing::PackedVolume;
 pub use raw::{parse_raw_spec, RawType};
 pub use series::{marschner_lobb_drift, ml_drift_frequency, VolumeSeries};
 pub use source::{check_box_len, BrickSource};
+#[cfg(feature = "files")]
 pub use stream::MappedVolume;
 pub use synthetic::{marschner_lobb, marschner_lobb_grad, marschner_lobb_hessian, ml_position};
 

@@ -6,7 +6,9 @@
 //! that interpolates between its 3D frames would show at a time between
 //! samples.
 
-use super::error::{check_finite, checked_count};
+#[cfg(feature = "nifti")]
+use super::error::check_finite;
+use super::error::checked_count;
 use super::raw::RawType;
 use super::synthetic::{ML_ALPHA, ML_FM};
 use super::{Volume, VolumeError};

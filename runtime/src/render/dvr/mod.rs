@@ -45,7 +45,9 @@ pub mod transfer;
 pub use cpu::{cpu_render, rms};
 pub use params::{dvr_params, DvrParams};
 pub use renderer::{DvrLook, DvrRenderer};
-pub(crate) use scene::{caster_entries, Custom};
+pub(crate) use scene::caster_entries;
+#[cfg(feature = "references")]
+pub(crate) use scene::Custom;
 pub use scene::{render, DvrScene};
 pub use skip::{empty_flags, skip_distances, skip_flags, widen_bounds};
 
@@ -174,14 +176,10 @@ pub(crate) fn dvr_template_paged(name: &str) -> String {
 }
 
 fn dvr_template_full(name: &str, lookup: bool, host_depth: bool, curvature: Option<f32>, paged: bool) -> String {
-    let mut env = minijinja::Environment::new();
-    env.add_template("dvr", include_str!("../../../../templates/dvr.wgsl.j2")).expect("template");
-    env.add_template("paged", include_str!("../../../../templates/paged.wgsl.j2")).expect("template");
-    let text = env
-        .get_template("dvr")
-        .unwrap()
-        .render(minijinja::context! { name => name, perm => lookup, host_depth => host_depth, curvature => curvature.is_some(), paged => paged })
-        .expect("render");
+    let text = crate::render::templates::render(
+        "dvr",
+        minijinja::context! { name => name, perm => lookup, host_depth => host_depth, curvature => curvature.is_some(), paged => paged },
+    );
     match curvature {
         Some(r) => format!("{text}{}", crate::render::iso::curvature::curvature_tf_wgsl(name, r)),
         None => text,
@@ -208,6 +206,7 @@ pub(crate) fn shader_source_with(d: &Derivation, module: &EmitOptions, lookup: b
 }
 
 /// The emitted filter module (fetch, eval, eval_grad, min/max kernel).
+#[cfg(any(test, feature = "references"))]
 pub(crate) fn filter_module(d: &Derivation, layout: Layout) -> Result<String, GpuError> {
     filter_module_with(d, &module_options(layout))
 }

@@ -88,6 +88,7 @@ impl<'a> DvrScene<'a> {
     /// bounded by `d`'s min/max kernel `<minmax>_minmax_main`, per cell and
     /// widened by `reach` cells when the function reaches further than
     /// `d`'s support ([`widen_bounds`]).
+    #[cfg(feature = "references")]
     pub(crate) fn with_source(
         gpu: &'a Gpu,
         d: &'a Derivation,

@@ -31,7 +31,6 @@
 //! ([`Tf1d::transparent`]): give the values to be skipped a zero-opacity
 //! stretch (two zero points), not a single zero point where a ramp starts.
 
-use serde::Deserialize;
 
 /// Reference step (cells) of the `opacity` of a control point.
 pub const REF_STEP: f64 = 1.0;
@@ -50,8 +49,8 @@ pub const PRESETS: &[(&str, &str)] = &[
 ];
 
 /// One control point of a transfer function.
-#[derive(Clone, Debug, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "files", derive(serde::Deserialize), serde(deny_unknown_fields))]
 pub struct ControlPoint {
     /// Data value.
     pub value: f64,
@@ -61,7 +60,10 @@ pub struct ControlPoint {
     pub opacity: f64,
 }
 
-#[derive(Deserialize)]
+// The JSON form (feature `files`): without it a host builds its
+// [`TransferFunction`] from points in code.
+#[cfg(feature = "files")]
+#[derive(serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 struct TfFile {
     range: [f64; 2],
@@ -74,11 +76,13 @@ struct TfFile {
     description: Option<String>,
 }
 
+#[cfg(feature = "files")]
 struct TfFileChecked {
     range: [f64; 2],
     points: Vec<ControlPoint>,
 }
 
+#[cfg(feature = "files")]
 /// Control points from a colormap PNG: the first row's pixels, evenly over
 /// `range` (first pixel at lo, last at hi), RGB the colour and alpha the
 /// opacity (8 or 16 bits, grey or RGB, with an alpha channel).
@@ -126,6 +130,7 @@ pub struct TransferFunction {
 
 /// Why a transfer function was refused: the preset name or file it came
 /// from, and the problem (with its fix). One line.
+#[cfg(feature = "files")]
 #[derive(Debug, thiserror::Error)]
 #[error("{name}: {problem}")]
 pub struct TfError {
@@ -135,6 +140,7 @@ pub struct TfError {
 }
 
 /// What is wrong with a transfer function.
+#[cfg(feature = "files")]
 #[derive(Debug, thiserror::Error)]
 pub enum TfProblem {
     #[error("cannot read the transfer function file: {error}; check the path, or {}", usage())]
@@ -166,6 +172,7 @@ pub enum TfProblem {
 }
 
 /// How to name a transfer function, for error messages.
+#[cfg(feature = "files")]
 fn usage() -> String {
     let names: Vec<&str> = PRESETS.iter().map(|p| p.0).collect();
     format!(
@@ -175,6 +182,7 @@ fn usage() -> String {
 }
 
 impl TransferFunction {
+    #[cfg(feature = "files")]
     /// A preset by name, or a JSON file. Errors are one line naming the
     /// argument, the problem and the fix.
     pub fn load(arg: &str) -> Result<TransferFunction, TfError> {
@@ -208,12 +216,14 @@ impl TransferFunction {
         }
     }
 
+    #[cfg(feature = "files")]
     /// A preset by name (panics on an unknown name: for built-in uses).
     pub fn preset(name: &str) -> TransferFunction {
         let text = PRESETS.iter().find(|p| p.0 == name).unwrap_or_else(|| panic!("no preset {name}")).1;
         TransferFunction::parse(text, name).expect("presets parse")
     }
 
+    #[cfg(feature = "files")]
     /// Parses and checks the JSON text of a transfer function; `source`
     /// names it in the (one-line) error. A `colormap` is read relative to
     /// the working directory.
@@ -221,6 +231,7 @@ impl TransferFunction {
         TransferFunction::parse_in(text, source, None)
     }
 
+    #[cfg(feature = "files")]
     /// [`TransferFunction::parse`] with a `colormap` path relative to `dir`
     /// (the JSON file's folder).
     pub fn parse_in(text: &str, source: &str, dir: Option<&std::path::Path>) -> Result<TransferFunction, TfError> {
@@ -442,7 +453,7 @@ impl Preint {
     }
 }
 
-#[cfg(test)]
+#[cfg(all(test, feature = "files"))]
 mod tests {
     use super::*;
 

@@ -4,7 +4,7 @@
 //! (`templates/four_hit.wgsl.j2`) and the exact evaluator's frame.
 
 use super::{cpu_frame, shade, FourIsoOptions};
-use crate::render::iso::template::{coefficient_exprs, lit, HIT_ROOTS};
+use crate::render::iso::template::{coefficient_exprs, lit};
 use crate::render::iso::{hit_exact, TimeHitPlan, HIT_DEPTH, HIT_ITERATIONS, HIT_MERGE, HIT_TOLERANCE};
 use crate::volume::LatticeVolume4;
 use boxforge::derive::Derivation;
@@ -36,9 +36,6 @@ pub(super) fn exact_shader(name: &str, plan: &TimeHitPlan) -> String {
             names.push(format!("ders[{k}]"));
         }
     }
-    let mut env = minijinja::Environment::new();
-    env.add_template("four_hit", include_str!("../../../../templates/four_hit.wgsl.j2")).expect("template");
-    env.add_template("hit_roots", HIT_ROOTS).expect("template");
     let ctx = minijinja::context! {
         name => "four_hit",
         filter => name,
@@ -55,7 +52,7 @@ pub(super) fn exact_shader(name: &str, plan: &TimeHitPlan) -> String {
             tolerance => lit(HIT_TOLERANCE),
         },
     };
-    env.get_template("four_hit").unwrap().render(ctx).expect("render")
+    crate::render::templates::render("four_hit", ctx)
 }
 
 /// The exact-hit frame from the exact evaluator (f64): the same walk

@@ -293,6 +293,7 @@ pub fn render_with_depth(
     iso.timed_frames(o).map_err(as_gpu)
 }
 
+#[cfg(feature = "files")]
 /// Writes RGBA8 pixels as a PNG.
 /// Writes an RGBA PNG atomically (a temporary file renamed over `path`), so
 /// an interrupted run leaves either the old image or the new one.

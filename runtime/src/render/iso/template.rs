@@ -156,9 +156,6 @@ fn hit_context(plan: &HitPlan, name: &str) -> minijinja::Value {
     }
 }
 
-/// The first-root search shared by the exact walks (`templates/hit_roots.wgsl.j2`).
-pub(crate) const HIT_ROOTS: &str = include_str!("../../../../templates/hit_roots.wgsl.j2");
-
 /// The ray caster for this filter: the fixed-step walk, or with `exact`
 /// the exact walk over a fine bounds grid of `fine` = (edge, blocks per axis);
 /// with `host_depth` the host-depth input of the native per-frame renderer
@@ -170,12 +167,6 @@ pub(crate) fn template(
     host_depth: bool,
     curvature: bool,
 ) -> String {
-    let env = {
-        let mut env = minijinja::Environment::new();
-        env.add_template("raycast", include_str!("../../../../templates/raycast.wgsl.j2")).expect("template");
-        env.add_template("hit_roots", HIT_ROOTS).expect("template");
-        env
-    };
     let ctx = match exact {
         Some((plan, edge, blocks)) => minijinja::context! {
             name => name,
@@ -190,16 +181,13 @@ pub(crate) fn template(
         },
         None => minijinja::context! { name => name, exact => false, host_depth => host_depth, curvature => curvature },
     };
-    env.get_template("raycast").unwrap().render(ctx).expect("render")
+    crate::render::templates::render("raycast", ctx)
 }
 
 /// The fixed-step ray caster paged out of core (bindings 8 and 9: the
 /// per-pixel resume state and the brick request bitset), appended to a
 /// module emitted for the bricked layout.
 pub(crate) fn paged_template(name: &str) -> String {
-    let mut env = minijinja::Environment::new();
-    env.add_template("raycast", include_str!("../../../../templates/raycast.wgsl.j2")).expect("template");
-    env.add_template("paged", include_str!("../../../../templates/paged.wgsl.j2")).expect("template");
     let ctx = minijinja::context! { name => name, exact => false, host_depth => false, paged => true };
-    env.get_template("raycast").unwrap().render(ctx).expect("render")
+    crate::render::templates::render("raycast", ctx)
 }

@@ -78,7 +78,8 @@ impl Default for PagedOptions {
 }
 
 /// What rendering one frame out of core took.
-#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "files", derive(serde::Serialize))]
 pub struct PagedStats {
     /// Dispatches of the ray caster (1: everything was resident).
     pub passes: usize,

@@ -33,10 +33,9 @@ struct BuildParams {
     tex: [u32; 4],
 }
 
-fn template(file: &'static str, name: &str) -> String {
-    let mut env = minijinja::Environment::new();
-    env.add_template("t", file).expect("template");
-    env.get_template("t").unwrap().render(minijinja::context! { name => name }).expect("render")
+/// The runtime template `file` (`perm` or `perm_build`) for filter `name`.
+fn template(file: &str, name: &str) -> String {
+    crate::render::templates::render(file, minijinja::context! { name => name })
 }
 
 /// A PERM cache on the device for one scene, transfer function, step and
@@ -171,7 +170,7 @@ impl PermCache {
         let build_src = format!(
             "{}\n{}",
             filter_module_with(d, &volume.emit_options(crate::render::dvr::DVR_COMMAND))?,
-            template(include_str!("../../../../templates/perm_build.wgsl.j2"), name)
+            template("perm_build", name)
         );
         let build = gpu.compile(&format!("{name}.perm_build.wgsl"), &build_src)?;
         let bounds = block_bounds(gpu, &build, name, volume, dims, 1)?;
@@ -244,7 +243,7 @@ impl PermCache {
         let render_src = format!(
             "{}\n{}",
             shader_source_with(d, &volume.emit_options(crate::render::dvr::DVR_COMMAND), true)?,
-            template(include_str!("../../../../templates/perm.wgsl.j2"), name)
+            template("perm", name)
         );
         let shader = gpu.compile(&format!("{name}.dvr_perm.wgsl"), &render_src)?;
         let mut entries = caster_entries(gpu);

@@ -25,7 +25,8 @@ pub struct Counts {
 }
 
 /// Bytes per part of the cache.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "files", derive(serde::Serialize))]
 pub struct Memory {
     /// Index volume (IV).
     pub index_volume: u64,

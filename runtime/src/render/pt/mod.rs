@@ -13,7 +13,7 @@ pub mod tets;
 pub use renderer::{PtOptions, PtRenderer};
 
 /// The WGSL of the projected-tetrahedra render pipeline.
-pub const SHADER: &str = include_str!("../../../../templates/pt.wgsl");
+pub const SHADER: &str = crate::render::templates::PT;
 
 #[cfg(test)]
 mod tests {

@@ -67,8 +67,7 @@ mod tests {
     fn every_uniform_block_starts_with_the_camera_block() {
         assert_eq!(size_of::<CameraUniform>(), 6 * 16);
         let camera = ["eye", "forward", "right", "up", "box_lo", "box_hi"];
-        let raycast = include_str!("../../../../templates/raycast.wgsl.j2");
-        let dvr = include_str!("../../../../templates/dvr.wgsl.j2");
+        let (raycast, dvr) = (crate::render::templates::RAYCAST, crate::render::templates::DVR);
         for (template, name, offset, size) in [
             (raycast, "{{ name }}_RayParams", offset_of!(RayParams, camera), size_of::<RayParams>()),
             (dvr, "{{ name }}_DvrParams", offset_of!(DvrParams, camera), size_of::<DvrParams>()),
