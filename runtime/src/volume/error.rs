@@ -96,6 +96,7 @@ pub enum VolumeError {
 }
 
 /// The [`VolumeError::Io`] of a file that could not be read.
+#[cfg(feature = "files")]
 pub(crate) fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> VolumeError + '_ {
     move |source| VolumeError::Io { path: path.to_path_buf(), source }
 }
