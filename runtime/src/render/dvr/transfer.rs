@@ -31,7 +31,6 @@
 //! ([`Tf1d::transparent`]): give the values to be skipped a zero-opacity
 //! stretch (two zero points), not a single zero point where a ramp starts.
 
-
 /// Reference step (cells) of the `opacity` of a control point.
 pub const REF_STEP: f64 = 1.0;
 /// Opacities are capped here, so the extinction stays finite.
