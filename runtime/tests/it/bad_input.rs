@@ -89,7 +89,7 @@ fn cases(dir: &Path) -> Vec<(Vec<String>, &'static str)> {
         (args(&["generate", "bcc7", "--target", "cuda", "-o", &p("gen")]), "cuda"),
         (
             args(&["generate", "bcc7", "--layout", "packed", "--fetch", "linear", "--target", "hlsl", "-o", &p("gen")]),
-            "--fetch exact for hlsl",
+            "(--fetch exact) for hlsl",
         ),
         (args(&["generate", &p("missing.toml"), "-o", &p("gen")]), "cannot read"),
         (args(&["generate", &p("seven.toml"), "-o", &p("gen")]), "max_polynomials"),

@@ -195,7 +195,7 @@ fn generate_with_linear_fetches_picks_the_layouts_that_apply() {
     assert_eq!(refused.status.code(), Some(2));
     let err = String::from_utf8_lossy(&refused.stderr);
     assert_eq!(err.trim().lines().count(), 1, "{err}");
-    assert!(err.contains("layout = packed"), "{err}");
+    assert!(err.contains("--layout packed"), "the generator's option told as the flag: {err}");
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -30,8 +30,29 @@ pub struct Failure(pub String);
 
 impl From<boxforge::Error> for Failure {
     fn from(e: boxforge::Error) -> Failure {
-        Failure(e.to_string())
+        Failure(with_flags(&e.to_string()))
     }
+}
+
+/// The generator names its options as a spec or a `Builder` spells them
+/// (`fetch = exact`, `layout = packed`); on the command line they are flags,
+/// so its messages are told in the flags' words (`--fetch exact`).
+pub fn with_flags(message: &str) -> String {
+    let mut out = message.to_string();
+    for option in ["fetch", "layout", "variant", "form", "bounds", "target"] {
+        let (spec, flag) = (format!("{option} = "), format!("--{option} "));
+        let mut rest = out.as_str();
+        let mut told = String::with_capacity(out.len());
+        while let Some(at) = rest.find(&spec) {
+            let word_before = rest[..at].chars().last().is_some_and(|c| c.is_alphanumeric() || c == '_' || c == '-');
+            told.push_str(&rest[..at]);
+            told.push_str(if word_before { &spec } else { &flag });
+            rest = &rest[at + spec.len()..];
+        }
+        told.push_str(rest);
+        out = told;
+    }
+    out
 }
 
 impl From<String> for Failure {
@@ -263,5 +284,19 @@ impl<'a> Section<'a> {
             outln!("{section}");
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::with_flags;
+
+    #[test]
+    fn generator_options_are_told_as_flags() {
+        assert_eq!(
+            with_flags("use exact fetches (fetch = exact) for hlsl, or layout = packed"),
+            "use exact fetches (--fetch exact) for hlsl, or --layout packed"
+        );
+        assert_eq!(with_flags("prefetch = 2 stays"), "prefetch = 2 stays");
     }
 }
