@@ -14,8 +14,14 @@ pub enum PrefilterError {
     #[error(transparent)]
     Gpu(#[from] GpuError),
     /// The generator refused the module (its message names the reason).
-    #[error("{0}")]
-    Emit(String),
+    #[error(transparent)]
+    Emit(#[from] boxforge::Error),
+    /// The source volume could not be read.
+    #[error(transparent)]
+    Volume(#[from] crate::volume::VolumeError),
+    /// The prefiltered file could not be written.
+    #[error("cannot write {path}: {source} (check that its folder exists and is writable)")]
+    Write { path: std::path::PathBuf, source: std::io::Error },
     #[error(
         "volume of {points} points is too large for one prefilter dispatch on this device; split it or use a smaller volume"
     )]
@@ -68,7 +74,7 @@ pub fn prefilter_gpu_with(
     let name = &d.filter.name;
     let dv = DeviceVolume::with_options(gpu, vol, layout, options)?;
     dv.check_filter(d)?;
-    let module = emit(d, &dv.emit_options("boxforge prefilter")).map_err(|e| PrefilterError::Emit(e.to_string()))?;
+    let module = emit(d, &dv.emit_options("boxforge prefilter"))?;
     let shader = gpu.compile(&module.file_name, &module.source)?;
     let dev = &gpu.device;
     let out_binding = layout.sample_bindings();
@@ -115,7 +121,6 @@ pub fn prefilter_to_file(
     use std::io::Write;
     let name = &d.filter.name;
     let dims = source.dims();
-    let vol_err = |e: crate::volume::VolumeError| PrefilterError::Emit(e.to_string());
     let period = crate::render::paged::bounds::lattice_period(source.lattice());
     let reach =
         d.prefilter.taps.iter().flat_map(|(k, _)| k.iter().map(|c| c.unsigned_abs() as usize)).max().unwrap_or(0);
@@ -127,8 +132,7 @@ pub fn prefilter_to_file(
     let by_points = (65535 * 64) / (dims[0] * dims[1]).max(1);
     let nz = (by_texels.min(by_points) / period * period).max(period).min(dims[2].next_multiple_of(period));
     let module =
-        emit(d, &boxforge::emit::EmitOptions { command: "boxforge prefilter (slabs)".into(), ..Default::default() })
-            .map_err(|e| PrefilterError::Emit(e.to_string()))?;
+        emit(d, &boxforge::emit::EmitOptions { command: "boxforge prefilter (slabs)".into(), ..Default::default() })?;
     let shader = gpu.compile(&module.file_name, &module.source)?;
     let dev = &gpu.device;
     let entries = [
@@ -155,7 +159,7 @@ pub fn prefilter_to_file(
             wgpu::BindGroupEntry { binding: 2, resource: job_buf.as_entire_binding() },
         ],
     });
-    let io = |e: std::io::Error| PrefilterError::Emit(format!("cannot write {}: {e}", out.display()));
+    let io = |e: std::io::Error| PrefilterError::Write { path: out.to_path_buf(), source: e };
     let tmp = out.with_extension("partial");
     let mut file = std::io::BufWriter::new(std::fs::File::create(&tmp).map_err(io)?);
     let mut values = vec![0f32; size[0] * size[1] * size[2]];
@@ -165,7 +169,7 @@ pub fn prefilter_to_file(
         let lo = [-(halo as i64), -(halo as i64), z0 as i64 - halo as i64];
         let box_size = [size[0], size[1], n + 2 * halo];
         let texels = box_size[0] * box_size[1] * box_size[2];
-        source.read_box(lo, box_size, &mut values[..texels]).map_err(vol_err)?;
+        source.read_box(lo, box_size, &mut values[..texels])?;
         gpu.queue.write_texture(
             wgpu::TexelCopyTextureInfo {
                 texture: &tex,

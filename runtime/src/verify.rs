@@ -30,8 +30,14 @@ pub enum VerifyError {
     #[error(transparent)]
     Volume(#[from] crate::volume::VolumeError),
     /// The generator refused the module (its message names the reason).
-    #[error("{0}")]
-    Emit(String),
+    #[error(transparent)]
+    Emit(#[from] boxforge::Error),
+    /// Linear fetches asked of a 4D filter, whose samples no sampler filters.
+    #[error("4D samples are a storage buffer, which no sampler filters: verify 4D filters with exact fetches")]
+    FourDLinear,
+    /// A Vulkan run of a translation asked for without a device.
+    #[error("a Vulkan run of a translation needs a device: open one (Gpu::new) or run it on GL")]
+    NoDevice,
     #[error("{filter} is {dim}D: the runtime verifies 3D filters here, and 4D ones as WGSL (without --target); 2D shaders are checked by naga only")]
     NotThreeD { filter: String, dim: usize },
     #[error("the points count must be at least 1")]
@@ -113,7 +119,7 @@ fn verify_module(
     form: Option<EvalForm>,
     bounds: Bounds,
 ) -> Result<boxforge::emit::Emitted, VerifyError> {
-    emit(
+    Ok(emit(
         d,
         &EmitOptions {
             layout: vol.layout,
@@ -127,8 +133,7 @@ fn verify_module(
             texels: vol.format.texels(),
             ..Default::default()
         },
-    )
-    .map_err(|e| VerifyError::Emit(e.to_string()))
+    )?)
 }
 
 /// [`gpu_eval`] with a forced evaluation form and a bounds policy; also
@@ -368,9 +373,7 @@ pub fn verify_fetch(
 ) -> Result<VerifyReport, VerifyError> {
     if d.facts.dim == 4 {
         if fetch == FetchMode::Linear {
-            return Err(VerifyError::Emit(
-                "4D samples are a storage buffer, which no sampler filters: use --fetch exact".into(),
-            ));
+            return Err(VerifyError::FourDLinear);
         }
         return four::verify4(gpu, d, layout, variant, form, bounds, points, seed);
     }

@@ -38,6 +38,9 @@ pub mod compilers;
 pub mod header;
 pub mod modules;
 pub mod spirv;
+#[cfg(feature = "targets")]
+pub mod spirv_writer;
+#[cfg(feature = "targets")]
 pub mod text;
 
 use crate::validate::Binding;
@@ -300,6 +303,16 @@ pub enum BackError {
         /// What is wrong.
         message: String,
     },
+    /// A target whose naga back end this build of boxforge leaves out: the
+    /// other languages are behind the `targets` feature, so that a build
+    /// script writing WGSL does not compile four back ends.
+    #[error("{file}: translating into {target} needs boxforge's `targets` feature (naga's non-WGSL back ends): add `features = [\"targets\"]` to the boxforge dependency")]
+    TargetNotBuilt {
+        /// The file that would have been written.
+        file: String,
+        /// The target.
+        target: Target,
+    },
     /// A target that this filter or option cannot have.
     #[error("{file}: {message}")]
     Unsupported {
@@ -338,8 +351,12 @@ pub fn translate(wgsl: &str, stem: &str, target: Target, opts: &TranslateOptions
                 })
                 .collect(),
         }],
-        Target::Spirv => spirv::translate(&prepared)?,
+        #[cfg(feature = "targets")]
+        Target::Spirv => spirv_writer::translate(&prepared)?,
+        #[cfg(feature = "targets")]
         Target::Glsl | Target::GlslEs | Target::Hlsl | Target::Msl => text::translate(&prepared, target)?,
+        #[cfg(not(feature = "targets"))]
+        _ => return Err(BackError::TargetNotBuilt { file: format!("{stem}.wgsl"), target }),
     };
     let t = Translated {
         target,

@@ -495,6 +495,7 @@ mod tests {
         assert!(Error::OutDir.to_string().contains("out_dir"));
     }
 
+    #[cfg(feature = "targets")]
     #[test]
     fn builder_target_writes_the_translation() {
         let dir = temp_dir("target");
@@ -525,6 +526,26 @@ mod tests {
             .unwrap();
         let words = std::fs::read(spv.files.iter().find(|p| p.ends_with("zp.embedded.eval.spv")).unwrap()).unwrap();
         assert_eq!(&words[..4], &crate::back::spirv::MAGIC.to_le_bytes());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// Without the `targets` feature a translation is refused in one line
+    /// that names the feature, and WGSL still works.
+    #[cfg(not(feature = "targets"))]
+    #[test]
+    fn builder_target_without_the_feature_names_it() {
+        let dir = temp_dir("no-target");
+        let e = Builder::new()
+            .filter("zp")
+            .target(Target::Glsl)
+            .out_dir(&dir)
+            .emit_rerun_if_changed(false)
+            .generate()
+            .unwrap_err();
+        let text = e.to_string();
+        assert!(text.contains("`targets` feature") && text.contains("glsl"), "{text}");
+        assert!(!text.contains('\n'), "one line: {text}");
+        Builder::new().filter("zp").out_dir(&dir).emit_rerun_if_changed(false).generate().unwrap();
         std::fs::remove_dir_all(&dir).unwrap();
     }
 

@@ -96,7 +96,7 @@ pub fn compare_reference(gpu: &Gpu, r: &Reference, points: usize, rounds: usize)
         && can_filter_f32(gpu)
         && d.factorisation().is_some_and(|f| f.supports_linear_fetch());
     let fetch = if linear { FetchMode::Linear } else { FetchMode::Exact };
-    let m = emit(&d, &EmitOptions { kernels: false, fetch, ..Default::default() }).map_err(BenchError::emit)?;
+    let m = emit(&d, &EmitOptions { kernels: false, fetch, ..Default::default() })?;
     let module_with_ref = format!("{}\n{}", m.source, r.source);
     let reference_ops = references::ops(&module_with_ref, &r.source, &r.entry);
     let mut row = ReferenceRow {

@@ -14,27 +14,19 @@ pub enum BenchError {
     Verify(#[from] VerifyError),
     #[error(transparent)]
     Volume(#[from] VolumeError),
-    /// A filter name that does not resolve, or a filter that does not derive.
-    #[error("{0}")]
-    Derive(String),
-    /// The generator refused a module.
-    #[error("{0}")]
-    Emit(String),
+    /// A filter name that does not resolve, a filter that does not derive,
+    /// or a module the generator refused (its message names the reason).
+    #[error(transparent)]
+    Generator(#[from] boxforge::Error),
+    /// A translation into another shading language that failed.
+    #[error(transparent)]
+    Translate(#[from] boxforge::back::BackError),
+    /// A translated program that could not be compiled or run.
+    #[error(transparent)]
+    Target(#[from] crate::targets::TargetError),
     #[error("the MNI head {path} is missing: run from the repository root (it ships data/), or leave it out")]
     MissingMni { path: String },
     /// The external shader to time against a generated module.
     #[error("cannot read {path}: {reason} (check the path)")]
     ExternalShader { path: String, reason: String },
-}
-
-impl BenchError {
-    /// [`BenchError::Derive`] from any error's message.
-    pub(crate) fn derive(e: impl std::fmt::Display) -> BenchError {
-        BenchError::Derive(e.to_string())
-    }
-
-    /// [`BenchError::Emit`] from any error's message.
-    pub(crate) fn emit(e: impl std::fmt::Display) -> BenchError {
-        BenchError::Emit(e.to_string())
-    }
 }

@@ -128,7 +128,7 @@ fn samples_inside(d: &Derivation, n: usize) -> usize {
 pub fn quality(gpu: &Gpu, d: &Derivation, n: usize, points: usize) -> Result<QualityRow4, BenchError> {
     let layout = best_layout(d);
     let name = &d.filter.name;
-    let m = emit(d, &EmitOptions { layout, kernels: false, ..Default::default() }).map_err(BenchError::emit)?;
+    let m = emit(d, &EmitOptions { layout, kernels: false, ..Default::default() })?;
     let src = program4(&m.source, &format!("vec4<f32>({name}_eval(p), 0.0, 0.0, 0.0)"));
     let mut rng = Rng(0x4D_0000 + n as u64);
     let world: Vec<[f64; 4]> = (0..points).map(|_| std::array::from_fn(|_| -1.0 + 2.0 * rng.next_f64())).collect();
@@ -160,7 +160,7 @@ pub fn quality(gpu: &Gpu, d: &Derivation, n: usize, points: usize) -> Result<Qua
 pub fn speed(gpu: &Gpu, d: &Derivation, points: usize, rounds: usize) -> Result<SpeedRow4, BenchError> {
     let layout = best_layout(d);
     let name = &d.filter.name;
-    let m = emit(d, &EmitOptions { layout, kernels: false, ..Default::default() }).map_err(BenchError::emit)?;
+    let m = emit(d, &EmitOptions { layout, kernels: false, ..Default::default() })?;
     let src = program4(&m.source, &format!("vec4<f32>({name}_eval(p), 0.0, 0.0, 0.0)"));
     let vol = crate::verify::four::random_volume4(d, 9);
     let pts = crate::verify::four::random_points4(d, &vol, points, 9);

@@ -115,11 +115,10 @@ fn compare_on(gpu: &Gpu, r: &Reference, side: usize, points: usize, rounds: usiz
         row.note = Some("skipped: this adapter does not take SPIR-V as it is (no PASSTHROUGH_SHADERS)".into());
         return Ok(row);
     }
-    let m = emit(&d, &EmitOptions { kernels: false, command: "boxforge bench".into(), ..Default::default() })
-        .map_err(BenchError::emit)?;
+    let m = emit(&d, &EmitOptions { kernels: false, command: "boxforge bench".into(), ..Default::default() })?;
     let stem = m.file_name.trim_end_matches(".wgsl").to_string();
-    let t = translate(&m.source, &stem, Target::Glsl, &TranslateOptions::default()).map_err(BenchError::emit)?;
-    let library = crate::targets::library(&t).map_err(BenchError::emit)?;
+    let t = translate(&m.source, &stem, Target::Glsl, &TranslateOptions::default())?;
+    let library = crate::targets::library(&t)?;
     let f_gen = format!("{name}_eval");
     // Four programs: (source, label); a compile failure is the row's note.
     let sources = [
@@ -145,7 +144,7 @@ fn compare_on(gpu: &Gpu, r: &Reference, side: usize, points: usize, rounds: usiz
                 row.note = Some(format!("INVALID: {label} does not compile ({by}): {}; not timed", first.trim()));
                 return Ok(row);
             }
-            Err(e) => return Err(BenchError::emit(e)),
+            Err(e) => return Err(e.into()),
         }
     }
     let dv = DeviceVolume::new(gpu, &vol, Layout::Embedded)?;

@@ -167,7 +167,7 @@ pub fn run(
         let ml = LatticeVolume::marschner_lobb(&d.filter.lattice, [e3, e3, e3])?;
         let dv = DeviceVolume::new(gpu, &ml, Layout::Embedded)?;
         let pts = points_in(&d, &ml, points, 9);
-        let m = emit(&d, &EmitOptions { kernels: false, ..Default::default() }).map_err(BenchError::emit)?;
+        let m = emit(&d, &EmitOptions { kernels: false, ..Default::default() })?;
         let mut rivals = vec![("central differences", central(name), "bx_central".to_string(), false)];
         for (rival, code, entry) in hand_written(name) {
             rivals.push((rival, code.to_string(), entry.to_string(), true));

@@ -107,8 +107,8 @@ fn schemes() -> Vec<(&'static str, &'static str, &'static str, &'static str, &'s
 }
 
 fn derive(name: &str) -> Result<Derivation, BenchError> {
-    let f = boxforge::spec::catalog::get(name).map_err(BenchError::derive)?;
-    Derivation::new(&f).map_err(BenchError::derive)
+    let f = boxforge::spec::catalog::get(name)?;
+    Ok(Derivation::new(&f)?)
 }
 
 /// Runs the measurements: `points` random points per scheme, `rounds`
@@ -131,7 +131,7 @@ pub fn run(
         let edge = crate::scene::matched_edge(&d.filter.lattice, budget);
         let vol = LatticeVolume::marschner_lobb(&d.filter.lattice, [edge; 3])?;
         let pts = super::quality::points_in(&d, &vol, points, 31);
-        let m = emit(&d, &EmitOptions { kernels: false, ..Default::default() }).map_err(BenchError::emit)?;
+        let m = emit(&d, &EmitOptions { kernels: false, ..Default::default() })?;
         let call = if call.is_empty() { format!("{}_eval(p)", d.filter.name) } else { call.to_string() };
         let src = program(&m.source, extra, &format!("vec4<f32>({call}, 0.0, 0.0, 0.0)"));
         let dv = DeviceVolume::new(gpu, &vol, Layout::Embedded).map_err(e)?;
@@ -168,7 +168,7 @@ pub fn run(
     let mut mni_rows = Vec::new();
     if pt_size > 0 {
         let meshes = [Grid::Bcc, Grid::Cc]
-            .map(|g| Derivation::new(&g.linear_filter()).map_err(BenchError::derive))
+            .map(|g| Derivation::new(&g.linear_filter()))
             .into_iter()
             .collect::<Result<Vec<_>, _>>()?;
         let ml_tf = TransferFunction::preset("marschner-lobb");
@@ -217,8 +217,8 @@ pub fn run(
                     // variant of this view, as `render` does.
                     let mut renderer = format!("{label}, ray cast");
                     if d.filter.view_dependent {
-                        let (f, _) = d.filter.view_variant(view).map_err(BenchError::derive)?;
-                        d = Derivation::new(&f).map_err(BenchError::derive)?;
+                        let (f, _) = d.filter.view_variant(view)?;
+                        d = Derivation::new(&f)?;
                         renderer.push_str(" (the view's variant)");
                     }
                     (crate::render::dvr::render(gpu, &d, &vol, Layout::Embedded, &tf, &o).map_err(e)?, renderer)

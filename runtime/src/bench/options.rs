@@ -82,8 +82,8 @@ impl BenchOptions {
 
 /// The derivation of a filter by name (a catalog name or a spec).
 pub(super) fn derive_filter(name: &str) -> Result<Derivation, BenchError> {
-    let f = boxforge::spec::resolve(name).map_err(BenchError::derive)?;
-    Derivation::new(&f).map_err(BenchError::derive)
+    let f = boxforge::spec::resolve(name)?;
+    Ok(Derivation::new(&f)?)
 }
 
 /// Checks every input of a run (filters, the MNI file, an external shader)

@@ -101,8 +101,7 @@ pub fn run(
     let small = head.map(|h| h.downsample(HEAD_DOWNSAMPLE));
     let mut report = PermReport { adapter: gpu.describe(), size, rounds: rounds.max(1), rows: vec![], refused: vec![] };
     for name in FILTERS {
-        let d =
-            Derivation::new(&boxforge::spec::resolve(name).map_err(BenchError::derive)?).map_err(BenchError::derive)?;
+        let d = Derivation::new(&boxforge::spec::resolve(name)?)?;
         let (vol, tfs, what, view) = match &small {
             Some(h) => {
                 let v = crate::scene::from_cartesian(h, &d.filter.lattice, crate::scene::Conversion::Resample)?;

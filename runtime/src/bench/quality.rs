@@ -133,8 +133,7 @@ pub fn eval_rates(
     rounds: usize,
 ) -> Result<Vec<f64>, BenchError> {
     let name = &d.filter.name;
-    let m =
-        emit(d, &EmitOptions { layout: dv.layout, kernels: false, ..Default::default() }).map_err(BenchError::emit)?;
+    let m = emit(d, &EmitOptions { layout: dv.layout, kernels: false, ..Default::default() })?;
     let src = program(&m.source, "", &format!("vec4<f32>({name}_eval(p), 0.0, 0.0, 0.0)"));
     let job = Job::new(gpu, &src, &m.file_name, dv, points)?;
     let rates = timed_rounds(gpu, &[&job], rounds.max(1))?;

@@ -90,7 +90,7 @@ pub fn run_with(
                 .collect();
             if layout == Layout::Embedded {
                 let base = EmitOptions { layout, kernels: false, ..Default::default() };
-                let chosen = emit(&d, &base).map_err(BenchError::emit)?.stats.form;
+                let chosen = emit(&d, &base)?.stats.form;
                 if chosen != EvalForm::Dense {
                     modules.push((
                         Variant::Fast,
@@ -122,7 +122,7 @@ pub fn run_with(
                 None
             };
             for (variant, tag, opts) in modules {
-                let m = emit(&d, &opts).map_err(BenchError::emit)?;
+                let m = emit(&d, &opts)?;
                 let dv = if tag == Some(TAG_LINEAR) { dv_filtered.as_ref().unwrap_or(&dv) } else { &dv };
                 for (kind, call) in [
                     ("eval", format!("vec4<f32>({name}_eval(p), 0.0, 0.0, 0.0)")),
@@ -223,7 +223,7 @@ pub fn run_with(
         let ml = LatticeVolume::marschner_lobb(&d.filter.lattice, [e3, e3, e3])?;
         let dv = DeviceVolume::new(gpu, &ml, Layout::Embedded)?;
         let mpts = points_in(&d, &ml, o.points, 5);
-        let m = emit(&d, &EmitOptions { kernels: false, ..Default::default() }).map_err(BenchError::emit)?;
+        let m = emit(&d, &EmitOptions { kernels: false, ..Default::default() })?;
         progress(&format!("{name} analytic vs central-difference gradient"));
         let a = Job::new(gpu, &program(&m.source, "", &format!("{name}_eval_grad(p)")), "grad", &dv, &mpts)?;
         let c = Job::new(gpu, &program(&m.source, "", &central_call(name)), "central", &dv, &mpts)?;

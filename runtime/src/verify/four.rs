@@ -142,8 +142,7 @@ impl<'a> Evaluator4<'a> {
                 bounds,
                 ..Default::default()
             },
-        )
-        .map_err(|e| VerifyError::Emit(e.to_string()))?;
+        )?;
         let source = format!("{}\n{}", module.source, wrapper(&d.filter.name, module.stats.hessian_form.is_some()));
         let shader = gpu.compile(&module.file_name, &source)?;
         let dev = &gpu.device;

@@ -47,7 +47,7 @@ pub fn verify_target(
         command: format!("boxforge verify --target {target}"),
         ..Default::default()
     };
-    let module = emit(d, &options).map_err(|e| VerifyError::Emit(e.to_string()))?;
+    let module = emit(d, &options)?;
     let stem = module.file_name.trim_end_matches(".wgsl").to_string();
     let translated = translate(&module.source, &stem, target, &TranslateOptions::default())
         .map_err(crate::targets::TargetError::from)?;
@@ -57,7 +57,7 @@ pub fn verify_target(
             let dv = device_volume(gpu, d, &vol, layout, fetch)?;
             (TargetEvaluator::vulkan(gpu, &translated, &dv)?, Some(dv))
         }
-        (Runner::Vulkan, None) => return Err(VerifyError::Emit("a Vulkan run needs a device".into())),
+        (Runner::Vulkan, None) => return Err(VerifyError::NoDevice),
         #[cfg(feature = "gl-run")]
         (Runner::Gl, _) => (TargetEvaluator::gl(&translated, &vol, layout)?, None),
         #[cfg(not(feature = "gl-run"))]
