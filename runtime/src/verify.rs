@@ -38,7 +38,7 @@ pub enum VerifyError {
     /// A Vulkan run of a translation asked for without a device.
     #[error("a Vulkan run of a translation needs a device: open one (Gpu::new) or run it on GL")]
     NoDevice,
-    #[error("{filter} is {dim}D: the runtime verifies 3D filters here, and 4D ones as WGSL (without --target); 2D shaders are checked by naga only")]
+    #[error("{filter} is {dim}D: the runtime verifies 3D filters here, and 4D ones as WGSL (no translation); 2D shaders are checked by naga only")]
     NotThreeD { filter: String, dim: usize },
     #[error("the points count must be at least 1")]
     NoPoints,

@@ -33,11 +33,10 @@ pub struct Quality {
 
 /// Measures [`Quality`] on a prepared scene.
 pub fn quality(scene: &DvrScene, tf: &TransferFunction, o: &DvrOptions) -> Result<Quality, BenchError> {
-    let e = |x: crate::gpu::GpuError| BenchError::from(x);
     let o = DvrOptions { frames: 0, progress: false, ..o.clone() };
-    let fine = scene.render(tf, &DvrOptions { step: FINE_STEP, preintegrate: false, ..o.clone() }).map_err(e)?;
-    let pi = scene.render(tf, &DvrOptions { step: STEP, preintegrate: true, ..o.clone() }).map_err(e)?;
-    let point = scene.render(tf, &DvrOptions { step: STEP, preintegrate: false, ..o }).map_err(e)?;
+    let fine = scene.render(tf, &DvrOptions { step: FINE_STEP, preintegrate: false, ..o.clone() })?;
+    let pi = scene.render(tf, &DvrOptions { step: STEP, preintegrate: true, ..o.clone() })?;
+    let point = scene.render(tf, &DvrOptions { step: STEP, preintegrate: false, ..o })?;
     Ok(Quality { preintegrated: rms(&pi.rgba, &fine.rgba), point_sampled: rms(&point.rgba, &fine.rgba) })
 }
 
@@ -48,7 +47,6 @@ pub fn rows(gpu: &Gpu, o: &BenchOptions, rounds: usize, progress: &dyn Fn(&str))
     let Some(&size) = o.render_sizes.first() else {
         return Ok(vec![]);
     };
-    let e = |x: crate::gpu::GpuError| BenchError::from(x);
     // bcc7 when the run has it, else its first 3D filter.
     let mut names: Vec<&str> = o.filters.iter().map(String::as_str).collect();
     names.sort_by_key(|n| *n != "bcc7");
@@ -71,7 +69,7 @@ pub fn rows(gpu: &Gpu, o: &BenchOptions, rounds: usize, progress: &dyn Fn(&str))
     };
     let kind = format!("{KIND}_{what}_{size}");
     progress(&format!("{name} DVR {what} {size}^2 ({}), skipping and pre-integration, {rounds} rounds", tf.name));
-    let scene = DvrScene::new(gpu, &d, &vol, Layout::Embedded, 4).map_err(e)?;
+    let scene = DvrScene::new(gpu, &d, &vol, Layout::Embedded, 4)?;
     let base = DvrOptions {
         width: size,
         height: size,
@@ -94,7 +92,7 @@ pub fn rows(gpu: &Gpu, o: &BenchOptions, rounds: usize, progress: &dyn Fn(&str))
     for r in 0..rounds.max(1) {
         for k in round_order(contenders.len(), r) {
             let (opts, with_pi) = &contenders[k];
-            let f = scene.render_tables(&table, with_pi.then_some(&pi), opts).map_err(e)?;
+            let f = scene.render_tables(&table, with_pi.then_some(&pi), opts)?;
             empty = f.empty_blocks;
             if k == 0 {
                 map = f.skip_map;
@@ -111,7 +109,7 @@ pub fn rows(gpu: &Gpu, o: &BenchOptions, rounds: usize, progress: &dyn Fn(&str))
     } else {
         progress(&format!("{name} DVR Marschner-Lobb {size}^2: pre-integration quality (step {STEP} vs {FINE_STEP})"));
         let ml = LatticeVolume::marschner_lobb(&d.filter.lattice, [40, 40, 40])?;
-        let ml_scene = DvrScene::new(gpu, &d, &ml, Layout::Embedded, 4).map_err(e)?;
+        let ml_scene = DvrScene::new(gpu, &d, &ml, Layout::Embedded, 4)?;
         let ml_o = DvrOptions { azimuth: 30.0, elevation: 25.0, ..base.clone() };
         Some(quality(&ml_scene, &TransferFunction::preset("marschner-lobb"), &ml_o)?)
     };

@@ -14,6 +14,8 @@ pub enum BenchError {
     Verify(#[from] VerifyError),
     #[error(transparent)]
     Volume(#[from] VolumeError),
+    #[error(transparent)]
+    Render(#[from] crate::render::RenderError),
     /// A filter name that does not resolve, a filter that does not derive,
     /// or a module the generator refused (its message names the reason).
     #[error(transparent)]

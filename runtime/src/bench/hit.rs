@@ -91,7 +91,6 @@ pub fn rows(
     if !FILTERS.contains(&name) {
         return Ok(vec![]);
     }
-    let e = |x: crate::gpu::GpuError| BenchError::from(x);
     let mut out = Vec::new();
     progress(&format!("{name} render Marschner-Lobb {size}^2, exact hit vs step 0.25, {rounds} rounds"));
     let ro = |hit| RenderOptions { width: size, height: size, hit, step: 0.25, frames: 1, ..RenderOptions::default() };
@@ -99,7 +98,7 @@ pub fn rows(
     let mut ms = [Vec::new(), Vec::new()];
     for r in 0..rounds.max(1) {
         for k in round_order(2, r) {
-            ms[k].push(render::render(gpu, d, ml, Layout::Embedded, &ro(modes[k])).map_err(e)?.ms_per_frame);
+            ms[k].push(render::render(gpu, d, ml, Layout::Embedded, &ro(modes[k]))?.ms_per_frame);
         }
     }
     let ratio = Ratio::of_rates(&ms[0], &ms[1]);
@@ -127,7 +126,7 @@ pub fn rows(
         ("exact hit", RenderOptions { hit: HitMode::Exact, ..base.clone() }),
         ("step 0.5", RenderOptions { hit: HitMode::Step, step: 0.5, ..base.clone() }),
     ] {
-        let (frame, depth) = render::render_with_depth(gpu, d, &shell, Layout::Embedded, &o).map_err(e)?;
+        let (frame, depth) = render::render_with_depth(gpu, d, &shell, Layout::Embedded, &o)?;
         let m = misses(&reference, &depth);
         out.push(BenchRow::render(
             name,

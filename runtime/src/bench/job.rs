@@ -61,12 +61,17 @@ impl Job {
     pub fn new(gpu: &Gpu, source: &str, label: &str, dv: &DeviceVolume, points: &[[f32; 4]]) -> Result<Job, GpuError> {
         let sampled = references::uses_sampler(source);
         if sampled && !can_filter_f32(gpu) {
-            return Err(GpuError::Runtime(format!(
-                "{label} filters an R32Float texture, but the adapter lacks FLOAT32_FILTERABLE"
-            )));
+            return Err(GpuError::MissingFeature {
+                feature: "FLOAT32_FILTERABLE",
+                needed_for: format!("{label} (it filters an R32Float texture)"),
+                fix: "run it on an adapter that filters f32 textures",
+            });
         }
         if sampled && dv.layout != Layout::Embedded {
-            return Err(GpuError::Runtime(format!("{label}: hardware filtering needs the embedded layout")));
+            return Err(GpuError::Validation {
+                what: label.to_string(),
+                message: "hardware filtering needs the embedded layout".into(),
+            });
         }
         let shader = gpu.compile(label, source)?;
         let samples = (dv.layout_entries(0, wgpu::ShaderStages::COMPUTE), dv.bind_entries(0));

@@ -121,7 +121,6 @@ pub fn run(
     mni: Option<&crate::volume::Volume>,
     progress: &dyn Fn(&str),
 ) -> Result<LiteratureReport, BenchError> {
-    let e = |x: crate::gpu::GpuError| BenchError::from(x);
     let budget = 41f64.powi(3);
     let mut jobs = Vec::new();
     let mut rows = Vec::new();
@@ -134,10 +133,10 @@ pub fn run(
         let m = emit(&d, &EmitOptions { kernels: false, ..Default::default() })?;
         let call = if call.is_empty() { format!("{}_eval(p)", d.filter.name) } else { call.to_string() };
         let src = program(&m.source, extra, &format!("vec4<f32>({call}, 0.0, 0.0, 0.0)"));
-        let dv = DeviceVolume::new(gpu, &vol, Layout::Embedded).map_err(e)?;
-        let job = Job::new(gpu, &src, label, &dv, &pts).map_err(e)?;
-        job.time(gpu).map_err(e)?;
-        let out = job.outputs(gpu).map_err(e)?;
+        let dv = DeviceVolume::new(gpu, &vol, Layout::Embedded)?;
+        let job = Job::new(gpu, &src, label, &dv, &pts)?;
+        job.time(gpu)?;
+        let out = job.outputs(gpu)?;
         let sum: f64 = pts
             .iter()
             .zip(&out)
@@ -159,7 +158,7 @@ pub fn run(
     }
     progress("literature: timing every scheme in the same rounds");
     let refs: Vec<&Job> = jobs.iter().map(|(j, _)| j).collect();
-    let rates = timed_rounds(gpu, &refs, rounds.max(1)).map_err(e)?;
+    let rates = timed_rounds(gpu, &refs, rounds.max(1))?;
     for (row, r) in rows.iter_mut().zip(&rates) {
         row.evals_per_s = median(r);
         row.rounds = r.clone();
@@ -183,7 +182,7 @@ pub fn run(
                 crate::render::pt::render::Shading::Phong,
                 crate::render::pt::render::Normals::Vertex,
             )
-            .map_err(e)
+            .map_err(BenchError::from)
         };
         for d in &meshes {
             progress(&format!("literature: projected tetrahedra on {} (Marschner-Lobb)", d.filter.lattice.name));
@@ -221,7 +220,7 @@ pub fn run(
                         d = Derivation::new(&f)?;
                         renderer.push_str(" (the view's variant)");
                     }
-                    (crate::render::dvr::render(gpu, &d, &vol, Layout::Embedded, &tf, &o).map_err(e)?, renderer)
+                    (crate::render::dvr::render(gpu, &d, &vol, Layout::Embedded, &tf, &o)?, renderer)
                 } else {
                     // The hand-written plane-stack schemes, stack chosen from the view.
                     let scheme = if call.starts_with("mattausch_bilinear_spatial") {
@@ -230,7 +229,7 @@ pub fn run(
                         crate::render::schemes::Scheme::Bilinear
                     };
                     let axis = crate::render::schemes::stack_for_view(view);
-                    let (frame, _) = crate::render::schemes::render(gpu, &vol, scheme, &tf, &o).map_err(e)?;
+                    let (frame, _) = crate::render::schemes::render(gpu, &vol, scheme, &tf, &o)?;
                     (frame, format!("{label}, ray cast ({} stack, from the view)", ["x", "y", "z"][axis]))
                 };
                 mni_rows.push(MniRow {

@@ -138,9 +138,8 @@ fn measure_filter(
     progress: &dyn Fn(&str),
     report: &mut PermReport,
 ) -> Result<(), BenchError> {
-    let e = |x: crate::gpu::GpuError| BenchError::from(x);
     let name = &d.filter.name;
-    let scene = DvrScene::new(gpu, d, vol, Layout::Embedded, 4).map_err(e)?;
+    let scene = DvrScene::new(gpu, d, vol, Layout::Embedded, 4)?;
     let o = DvrOptions {
         width: size,
         height: size,
@@ -152,7 +151,7 @@ fn measure_filter(
     };
     let table = tf.table();
     let pi = table.preintegrate(STEP as f64);
-    let reference = scene.render_tables(&table, Some(&pi), &DvrOptions { frames: 0, ..o.clone() }).map_err(e)?;
+    let reference = scene.render_tables(&table, Some(&pi), &DvrOptions { frames: 0, ..o.clone() })?;
     for &((n, m), peel) in configs {
         let quant = Quant { density: n, gradient: m };
         let peeling = if peel { ", peeled" } else { "" };
@@ -178,13 +177,13 @@ fn measure_filter(
         for r in 0..rounds.max(1) {
             for k in round_order(2, r) {
                 if k == 0 {
-                    direct.push(scene.render_tables(&table, Some(&pi), &o).map_err(e)?.ms_per_frame);
+                    direct.push(scene.render_tables(&table, Some(&pi), &o)?.ms_per_frame);
                 } else {
-                    perm.push(cache.render(&scene, &table, Some(&pi), &o).map_err(e)?.ms_per_frame);
+                    perm.push(cache.render(&scene, &table, Some(&pi), &o)?.ms_per_frame);
                 }
             }
         }
-        let image = cache.render(&scene, &table, Some(&pi), &DvrOptions { frames: 0, ..o.clone() }).map_err(e)?;
+        let image = cache.render(&scene, &table, Some(&pi), &DvrOptions { frames: 0, ..o.clone() })?;
         let c = cache.counts;
         report.rows.push(PermRow {
             filter: name.clone(),

@@ -71,12 +71,8 @@ pub fn in_core(
     rounds: usize,
     progress: &dyn Fn(&str),
 ) -> Result<Vec<InCoreRow>, RenderError> {
-    let d = Derivation::new(
-        &boxforge::spec::catalog::get(filter).map_err(|e| crate::gpu::GpuError::Runtime(e.to_string()))?,
-    )
-    .map_err(|e| crate::gpu::GpuError::Runtime(e.to_string()))?;
-    let vol = LatticeVolume::marschner_lobb(&d.filter.lattice, [edge; 3])
-        .map_err(|e| crate::gpu::GpuError::Runtime(e.to_string()))?;
+    let d = Derivation::new(&boxforge::spec::catalog::get(filter)?)?;
+    let vol = LatticeVolume::marschner_lobb(&d.filter.lattice, [edge; 3])?;
     let bricks = BrickShape::for_filter(&d);
     let configs = [
         (Layout::Embedded, SampleFormat::F32),

@@ -149,10 +149,12 @@ pub fn layout_entries_from(
             "storage buffer read_write" => Ok(storage_entry(b.binding, false)),
             "uniform buffer" => Ok(uniform_entry(b.binding)),
             "texture_depth_2d" => Ok(depth_texture_entry(b.binding)),
-            other => Err(crate::gpu::GpuError::Runtime(format!(
-                "binding {} ({}) of group {group} is a {other}, which this layout builder does not lay out",
-                b.binding, b.name
-            ))),
+            other => Err(crate::gpu::GpuError::UnsupportedBinding {
+                group,
+                binding: b.binding,
+                name: b.name.clone(),
+                kind: other.to_string(),
+            }),
         })
         .collect()
 }

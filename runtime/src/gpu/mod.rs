@@ -16,11 +16,32 @@ pub enum GpuError {
     #[error("no adapter matches '{wanted}'; available: {available} (set WGPU_ADAPTER_NAME to one of them)")]
     NoMatchingAdapter { wanted: String, available: String },
     #[error("the adapter refused a device: {0}")]
-    Device(String),
+    Device(#[from] wgpu::RequestDeviceError),
     #[error("shader {label} failed to compile:\n{message}")]
     Shader { label: String, message: String },
-    #[error("GPU error: {0}")]
-    Runtime(String),
+    /// A validation error scope caught an error around a device operation.
+    #[error("{what}: the device refused it: {message}")]
+    Validation { what: String, message: String },
+    /// A device error that no error scope caught (wgpu's message).
+    #[error("the device reported an error: {message}")]
+    Uncaptured { message: String },
+    /// Waiting for the device failed (lost, or timed out).
+    #[error("waiting for the device failed: {0}")]
+    Poll(#[from] wgpu::PollError),
+    /// A buffer could not be mapped for reading back.
+    #[error("reading a buffer back from the device failed: {0}")]
+    Map(#[from] wgpu::BufferAsyncError),
+    /// A mapped buffer's range could not be viewed.
+    #[error("reading a buffer back from the device failed: {0}")]
+    MapRange(#[from] wgpu::MapRangeError),
+    /// The device dropped a readback before it finished (device lost).
+    #[error("the device dropped a buffer readback before it finished (device lost?)")]
+    ReadbackDropped,
+    /// A WGSL binding of a kind the runtime has no bind group layout entry for.
+    #[error(
+        "binding {binding} ({name}) of group {group} is a {kind}, which the runtime's layout builder does not lay out"
+    )]
+    UnsupportedBinding { group: u32, binding: u32, name: String, kind: String },
     #[error("the device lacks wgpu's {feature} feature, which {needed_for} needs; {fix}")]
     MissingFeature { feature: &'static str, needed_for: String, fix: &'static str },
 }
@@ -126,8 +147,7 @@ impl Gpu {
             required_features: features,
             required_limits: adapter.limits(),
             ..Default::default()
-        }))
-        .map_err(|e| GpuError::Device(e.to_string()))?;
+        }))?;
         let gpu = Gpu::with_info(device, queue, info);
         gpu.catch_uncaptured_errors();
         Ok(gpu)
@@ -283,7 +303,7 @@ impl Gpu {
         let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
         let t = f();
         match pollster::block_on(scope.pop()) {
-            Some(e) => Err(GpuError::Runtime(format!("{what}: {}", one_line(&e.to_string())))),
+            Some(e) => Err(GpuError::Validation { what: what.to_string(), message: one_line(&e.to_string()) }),
             None => Ok(t),
         }
     }
@@ -385,9 +405,9 @@ impl Gpu {
         slice.map_async(wgpu::MapMode::Read, move |r| {
             let _ = tx.send(r);
         });
-        self.device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| GpuError::Runtime(e.to_string()))?;
-        rx.recv().map_err(|e| GpuError::Runtime(e.to_string()))?.map_err(|e| GpuError::Runtime(e.to_string()))?;
-        let data = slice.get_mapped_range().map_err(|e| GpuError::Runtime(e.to_string()))?.to_vec();
+        self.device.poll(wgpu::PollType::wait_indefinitely())?;
+        rx.recv().map_err(|_| GpuError::ReadbackDropped)??;
+        let data = slice.get_mapped_range()?.to_vec();
         staging.unmap();
         self.take_uncaptured()?;
         Ok(data)
@@ -395,7 +415,7 @@ impl Gpu {
 
     /// Waits for all submitted work; reports a device error that no scope caught.
     pub fn wait(&self) -> Result<(), GpuError> {
-        self.device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| GpuError::Runtime(e.to_string()))?;
+        self.device.poll(wgpu::PollType::wait_indefinitely())?;
         self.take_uncaptured()
     }
 
@@ -407,7 +427,7 @@ impl Gpu {
     /// Err with the first uncaught device error, if one happened.
     pub fn take_uncaptured(&self) -> Result<(), GpuError> {
         match self.uncaptured.lock().unwrap_or_else(|p| p.into_inner()).take() {
-            Some(e) => Err(GpuError::Runtime(e)),
+            Some(message) => Err(GpuError::Uncaptured { message }),
             None => Ok(()),
         }
     }

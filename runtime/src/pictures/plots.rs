@@ -32,12 +32,12 @@ pub enum PlotError {
     #[error("a bar chart needs at least one positive value")]
     NoPositiveBar,
     /// plotters failed to lay out or draw the chart.
-    #[error("{0}")]
-    Draw(String),
+    #[error("drawing the chart failed: {message}")]
+    Draw { message: String },
 }
 
 fn draw_error(e: DrawingAreaErrorKind<std::io::Error>) -> PlotError {
-    PlotError::Draw(e.to_string())
+    PlotError::Draw { message: e.to_string() }
 }
 
 type Area<'a> = DrawingArea<SVGBackend<'a>, plotters::coord::Shift>;

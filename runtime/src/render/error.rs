@@ -1,12 +1,59 @@
 //! The renderers' error type.
 
 use crate::gpu::GpuError;
+use crate::memory::human;
 
 /// What can go wrong building or driving a renderer.
 #[derive(Debug, thiserror::Error)]
 pub enum RenderError {
     #[error(transparent)]
     Gpu(#[from] GpuError),
+    /// The generator refused the renderer's module, or a filter that does
+    /// not resolve or derive (its message names the reason).
+    #[error(transparent)]
+    Generator(#[from] boxforge::Error),
+    /// The volume could not be read, stored or uploaded.
+    #[error(transparent)]
+    Volume(#[from] crate::volume::VolumeError),
+    /// A prepared scene, cache or table used with options it was not built for.
+    #[error("the {what} was built for {built}, the options ask for {asked}: build it again for these options")]
+    BuiltForOther { what: &'static str, built: String, asked: String },
+    /// A PERM cache peeled for rays that stop earlier than the render's.
+    #[error("this PERM cache was peeled for rays that stop at opacity {peeled}; a render with termination {asked} may reach peeled cells: build one for it")]
+    PermPeeled { peeled: f32, asked: f32 },
+    /// A dispatch before any frame was prepared.
+    #[error("no frame was prepared: prepare a frame before dispatching it")]
+    NoFrame,
+    /// Curvature shading of a filter with no second derivatives.
+    #[error("{mode} shading needs second derivatives, but {filter} has degree {degree} (its pieces are linear, its Hessian zero): use a filter of degree >= 2 such as bcc7 or cc_tricubic")]
+    ShadeNeedsDegree { mode: &'static str, filter: String, degree: usize },
+    /// A curvature radius or contour thickness that is not finite and > 0.
+    #[error("curvature radius {radius} and contour thickness {thickness} must be finite and > 0")]
+    ShadeControls { radius: f32, thickness: f32 },
+    /// The 4D exact hit asked of a filter that is not 4D.
+    #[error("the exact hit of the 4D renderer needs a 4D filter")]
+    NotFourD,
+    /// The curvature transfer function out of core.
+    #[error("the curvature transfer function is not rendered out of core: drop the curvature or the device budget")]
+    PagedCurvature,
+    /// A brick edge the block grid or the lattice cannot tile.
+    #[error("brick edge {brick} must be a multiple of the block edge {block} and of the lattice's period {period} (e.g. 32)")]
+    BrickEdge { brick: usize, block: usize, period: usize },
+    /// A device budget below the fixed tables plus eight brick slots.
+    #[error("a device budget of {} is too small: the page table, block bounds and image buffers take {} and the pool needs at least 8 brick slots of {} ({slot}^3 texels of {format}); give at least {}", human(*budget), human(*fixed), human(*slot_bytes), human(*need))]
+    BudgetTooSmall { budget: u64, fixed: u64, slot_bytes: u64, slot: usize, format: &'static str, need: u64 },
+    /// A pool texture too small for eight slots at the device's edge limit.
+    #[error("a pool texture of at most {max_edge} texels per edge holds {capacity} slots of {slot}^3: use a smaller brick edge")]
+    PoolEdge { max_edge: usize, capacity: usize, slot: usize },
+    /// An out-of-core frame that did not finish in the pass limit.
+    #[error("the frame did not complete in {passes} passes: the pool of {slots} slots is too small for the bricks its rays need at once; raise the budget")]
+    FrameIncomplete { passes: usize, slots: usize },
+    /// Rays waiting for bricks that no slot of the pool can take.
+    #[error("{pending} rays wait for bricks but none fits the pool of {slots} slots: raise the budget")]
+    PoolStarved { pending: u64, slots: usize },
+    /// An out-of-core frame larger than the renderer reserved.
+    #[error("a {width}x{height} frame is larger than the {max_pixels} pixels this renderer's budget reserved (PagedOptions::max_pixels)")]
+    FrameTooLarge { width: u32, height: u32, max_pixels: u64 },
     #[error("the target has no pixels: give it a width and height of at least 1")]
     EmptyTarget,
     #[error("a {width}x{height} image needs {} bytes in one storage binding, over this device's max_storage_buffer_binding_size ({limit}); render a smaller target", *width as u64 * *height as u64 * 4)]
@@ -37,15 +84,4 @@ pub enum RenderError {
     /// A host depth texture whose texels are not the target's pixels.
     #[error("the host depth texture is {}x{} with {samples} sample(s), the target {}x{}: pass a single-sample depth texture of the target's size", depth[0], depth[1], target[0], target[1])]
     HostDepthSize { depth: [u32; 2], samples: u32, target: [u32; 2] },
-}
-
-impl RenderError {
-    /// The error as a [`GpuError`], for the one-shot functions that return
-    /// one: a device error as it is, a refused target as its message.
-    pub(crate) fn into_gpu(self) -> GpuError {
-        match self {
-            RenderError::Gpu(e) => e,
-            other => GpuError::Runtime(other.to_string()),
-        }
-    }
 }

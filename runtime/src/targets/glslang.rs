@@ -23,7 +23,7 @@ pub fn compile(source: &str, language: Source, label: &str) -> Result<(Vec<u32>,
     static N: AtomicUsize = AtomicUsize::new(0);
     let dir =
         std::env::temp_dir().join(format!("boxforge-run-{}-{}", std::process::id(), N.fetch_add(1, Ordering::Relaxed)));
-    std::fs::create_dir_all(&dir).map_err(|e| TargetError::Io(e.to_string()))?;
+    std::fs::create_dir_all(&dir)?;
     let result = (|| {
         let (file, by) = match language {
             Source::Glsl => ("shader.comp", format!("glslangValidator {version} (GLSL to SPIR-V)")),
@@ -31,14 +31,14 @@ pub fn compile(source: &str, language: Source, label: &str) -> Result<(Vec<u32>,
         };
         let path = dir.join(file);
         let out = dir.join("shader.spv");
-        std::fs::write(&path, source).map_err(|e| TargetError::Io(e.to_string()))?;
+        std::fs::write(&path, source)?;
         let mut cmd = Command::new("glslangValidator");
         cmd.args(["-V", "--target-env", "vulkan1.1"]);
         if let Source::Hlsl { entry } = language {
             cmd.args(["-D", "-S", "comp", "-e", entry]);
         }
         cmd.arg(&path).arg("-o").arg(&out);
-        let o = cmd.output().map_err(|e| TargetError::Io(e.to_string()))?;
+        let o = cmd.output()?;
         if !o.status.success() {
             return Err(TargetError::Compile {
                 label: label.to_string(),
@@ -46,11 +46,7 @@ pub fn compile(source: &str, language: Source, label: &str) -> Result<(Vec<u32>,
                 message: String::from_utf8_lossy(&o.stdout).trim().to_string(),
             });
         }
-        let o = Command::new("spirv-val")
-            .args(["--target-env", "vulkan1.1"])
-            .arg(&out)
-            .output()
-            .map_err(|e| TargetError::Io(e.to_string()))?;
+        let o = Command::new("spirv-val").args(["--target-env", "vulkan1.1"]).arg(&out).output()?;
         if !o.status.success() {
             return Err(TargetError::Compile {
                 label: label.to_string(),
@@ -60,7 +56,7 @@ pub fn compile(source: &str, language: Source, label: &str) -> Result<(Vec<u32>,
                     .to_string(),
             });
         }
-        let bytes = std::fs::read(&out).map_err(|e| TargetError::Io(e.to_string()))?;
+        let bytes = std::fs::read(&out)?;
         let words = bytes.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
         Ok((words, by))
     })();

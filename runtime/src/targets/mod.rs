@@ -62,7 +62,10 @@ pub enum TargetError {
     #[error("{label}: {by} rejected it:\n{message}")]
     Compile { label: String, by: String, message: String },
     #[error("scratch files for the compiler: {0}")]
-    Io(String),
+    Io(#[from] std::io::Error),
+    /// A Vulkan program asked to run without its device and volume.
+    #[error("a Vulkan program needs its device and volume")]
+    NoDevice,
     #[error("{target} cannot run on {runner}: {why}")]
     Unsupported { target: Target, runner: &'static str, why: String },
 }
@@ -141,7 +144,7 @@ impl TargetEvaluator {
             }
             Target::Msl => return Err(unsupported(t.target, Runner::Vulkan, "no Metal driver on this machine")),
             Target::Wgsl => {
-                return Err(unsupported(t.target, Runner::Vulkan, "WGSL runs through `verify` without --target"))
+                return Err(unsupported(t.target, Runner::Vulkan, "WGSL runs through verify::verify, untranslated"))
             }
         };
         let label = format!("{f} {}", t.target);
@@ -202,7 +205,7 @@ impl TargetEvaluator {
         match &self.program {
             Program::Vulkan(p) => match (gpu, dv) {
                 (Some(gpu), Some(dv)) => p.eval(gpu, dv, points),
-                _ => Err(TargetError::Io("a Vulkan program needs its device and volume".into())),
+                _ => Err(TargetError::NoDevice),
             },
             #[cfg(feature = "gl-run")]
             Program::Gl(p) => p.eval(points),

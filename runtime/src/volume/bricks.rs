@@ -36,12 +36,7 @@ impl BrickShape {
     /// Refuses an edge of 0 or a halo of 0 (no filter reaches nowhere).
     pub fn check(&self) -> Result<(), VolumeError> {
         if self.edge == 0 || self.halo == 0 {
-            return Err(VolumeError::Bricks {
-                message: format!(
-                    "brick edge {} and halo {}: both must be at least 1 (e.g. --brick 32)",
-                    self.edge, self.halo
-                ),
-            });
+            return Err(VolumeError::BrickShape { edge: self.edge, halo: self.halo });
         }
         Ok(())
     }
@@ -121,22 +116,16 @@ impl LatticeVolume {
             }
         }
         let s = shape.slot();
-        let slots = slot_grid(order.len(), s, max_edge).ok_or_else(|| VolumeError::Bricks {
-            message: format!(
-                "{} bricks of {s}^3 texels (edge {} + halo {} on each side) do not fit in a pool texture of {max_edge} per edge; use a larger --brick or a smaller volume",
-                order.len(),
-                shape.edge,
-                shape.halo
-            ),
+        let slots = slot_grid(order.len(), s, max_edge).ok_or(VolumeError::PoolFull {
+            bricks: order.len(),
+            slot: s,
+            max_edge,
         })?;
         let size = slots.map(|n| n * s);
         let texels = size[0].checked_mul(size[1]).and_then(|t| t.checked_mul(size[2]));
-        let texels = texels.filter(|&t| t <= i32::MAX as usize).ok_or_else(|| VolumeError::Bricks {
-            message: format!(
-                "a pool of {}x{}x{} texels is too large; use fewer or smaller bricks",
-                size[0], size[1], size[2]
-            ),
-        })?;
+        let texels = texels
+            .filter(|&t| t <= i32::MAX as usize)
+            .ok_or(VolumeError::PoolTooLarge { texels: size.iter().map(|&n| n as u128).product() })?;
         let mut pool = vec![0f32; texels];
         let (h, b) = (shape.halo as i64, shape.edge as i64);
         for (i, k) in order.iter().enumerate() {
@@ -178,12 +167,7 @@ impl LatticeVolume {
     pub fn bricked_packed(&self, shape: BrickShape, max_edge: usize) -> Result<BrickedVolume, VolumeError> {
         shape.check()?;
         if !shape.edge.is_multiple_of(2) || !shape.halo.is_multiple_of(2) {
-            return Err(VolumeError::Bricks {
-                message: format!(
-                    "the bricked-packed layout needs an even brick edge and halo (got {} and {}); e.g. --brick 32",
-                    shape.edge, shape.halo
-                ),
-            });
+            return Err(VolumeError::BrickParity { edge: shape.edge, halo: shape.halo });
         }
         let packed = self.packed()?;
         let pivots = boxforge::emit::coset_pivots(&self.lattice)
@@ -194,18 +178,15 @@ impl LatticeVolume {
         let extent: [usize; 3] = std::array::from_fn(|a| gs * (1 + mask[a]));
         let bricks = self.dims.map(|n| n.div_ceil(shape.edge));
         let nb = bricks[0] * bricks[1] * bricks[2];
-        let slots = slot_grid(nb, 2 * gs, max_edge).ok_or_else(|| VolumeError::Bricks {
-            message: format!(
-                "{nb} bricks of {}^3 texels do not fit in a pool texture of {max_edge} per edge; use a larger --brick or a smaller volume",
-                shape.slot()
-            ),
+        let slots = slot_grid(nb, 2 * gs, max_edge).ok_or(VolumeError::PoolFull {
+            bricks: nb,
+            slot: shape.slot(),
+            max_edge,
         })?;
         let size: [usize; 3] = std::array::from_fn(|a| slots[a] * extent[a]);
         let texels = size[0] * size[1] * size[2];
         if texels > i32::MAX as usize {
-            return Err(VolumeError::Bricks {
-                message: format!("a pool of {texels} texels is too large; use fewer or smaller bricks"),
-            });
+            return Err(VolumeError::PoolTooLarge { texels: texels as u128 });
         }
         let tex = packed.texture;
         let mut pool = vec![0f32; texels];

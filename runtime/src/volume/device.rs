@@ -64,7 +64,7 @@ pub struct DeviceVolume {
 
 impl DeviceVolume {
     /// f32 samples in `layout` (bricks of the default shape).
-    pub fn new(gpu: &Gpu, v: &LatticeVolume, layout: Layout) -> Result<DeviceVolume, GpuError> {
+    pub fn new(gpu: &Gpu, v: &LatticeVolume, layout: Layout) -> Result<DeviceVolume, VolumeError> {
         DeviceVolume::with_options(gpu, v, layout, &VolumeOptions::default())
     }
 
@@ -74,13 +74,15 @@ impl DeviceVolume {
         v: &LatticeVolume,
         layout: Layout,
         options: &VolumeOptions,
-    ) -> Result<DeviceVolume, GpuError> {
-        let runtime = |e: VolumeError| GpuError::Runtime(e.to_string());
+    ) -> Result<DeviceVolume, VolumeError> {
         let format = options.format;
         if format == SampleFormat::U16 && !gpu.device.features().contains(wgpu::Features::TEXTURE_FORMAT_16BIT_NORM) {
-            return Err(GpuError::Runtime(
-                "sample format u16 needs R16Unorm textures (TEXTURE_FORMAT_16BIT_NORM), which this adapter lacks; use --format f16, u8 or f32".into(),
-            ));
+            return Err(GpuError::MissingFeature {
+                feature: "TEXTURE_FORMAT_16BIT_NORM",
+                needed_for: "u16 samples (R16Unorm textures)".into(),
+                fix: "store the samples as f16, u8 or f32",
+            }
+            .into());
         }
         // Only the normalized formats need the range (a pass over every sample).
         let map = match format {
@@ -105,18 +107,16 @@ impl DeviceVolume {
         };
         match layout {
             Layout::Embedded => {
-                crate::limits::check_volume_limits(v.dims, v.dims, layout, &gpu.limits())
-                    .map_err(|e| GpuError::Runtime(e.to_string()))?;
-                let bytes = format.encode_rows(&v.data, map, v.dims[0]).map_err(runtime)?;
+                crate::limits::check_volume_limits(v.dims, v.dims, layout, &gpu.limits())?;
+                let bytes = format.encode_rows(&v.data, map, v.dims[0])?;
                 let size = format.texture_size(v.dims);
                 dv.texture_view = Some(texture_3d(gpu, "embedded samples", size, format.texture_format(), &bytes)?);
                 dv.bytes = bytes.len();
             }
             Layout::Packed => {
-                let p = v.packed().map_err(runtime)?;
-                crate::limits::check_volume_limits(v.dims, p.texture, layout, &gpu.limits())
-                    .map_err(|e| GpuError::Runtime(e.to_string()))?;
-                let bytes = format.encode_rows(&p.words, map, p.texture[0]).map_err(runtime)?;
+                let p = v.packed()?;
+                crate::limits::check_volume_limits(v.dims, p.texture, layout, &gpu.limits())?;
+                let bytes = format.encode_rows(&p.words, map, p.texture[0])?;
                 let size = format.texture_size(p.texture);
                 dv.texture_view = Some(texture_3d(gpu, "packed samples", size, format.texture_format(), &bytes)?);
                 dv.buffers.push(gpu.uniform_buffer("packed grid", bytemuck::cast_slice(&p.grid)));
@@ -130,9 +130,8 @@ impl DeviceVolume {
                     // Coset-packed slots need an even halo (and edge).
                     let shape = BrickShape { halo: options.bricks.halo.next_multiple_of(2), ..options.bricks };
                     v.bricked_packed(shape, max)
-                }
-                .map_err(runtime)?;
-                let bytes = format.encode_rows(&b.pool, map, b.pool_size()[0]).map_err(runtime)?;
+                }?;
+                let bytes = format.encode_rows(&b.pool, map, b.pool_size()[0])?;
                 let size = format.texture_size(b.pool_size());
                 dv.texture_view = Some(texture_3d(gpu, "brick pool", size, format.texture_format(), &bytes)?);
                 let pages = b.bricks.map(|n| n as u32);
@@ -155,16 +154,17 @@ impl DeviceVolume {
     /// `FetchMode::Linear`): the same texture as [`DeviceVolume::new`], bound
     /// as filterable, and a linear clamp-to-edge sampler at binding + 4 (no
     /// extra memory). Needs FLOAT32_FILTERABLE.
-    pub fn new_filtered(gpu: &Gpu, v: &LatticeVolume, layout: Layout) -> Result<DeviceVolume, GpuError> {
+    pub fn new_filtered(gpu: &Gpu, v: &LatticeVolume, layout: Layout) -> Result<DeviceVolume, VolumeError> {
         if !gpu.device.features().contains(wgpu::Features::FLOAT32_FILTERABLE) {
-            return Err(GpuError::Runtime(
-                "fetch = linear needs hardware filtering of R32Float textures (FLOAT32_FILTERABLE), which this adapter lacks; use exact fetches".into(),
-            ));
+            return Err(GpuError::MissingFeature {
+                feature: "FLOAT32_FILTERABLE",
+                needed_for: "linear fetches (hardware filtering of R32Float textures)".into(),
+                fix: "use exact fetches",
+            }
+            .into());
         }
         if layout.is_bricked() {
-            return Err(GpuError::Runtime(
-                "fetch = linear is not offered on the bricked layout; use exact fetches or the packed layout".into(),
-            ));
+            return Err(VolumeError::LinearBricked);
         }
         let mut dv = DeviceVolume::new(gpu, v, layout)?;
         dv.sampler = Some(linear_sampler(gpu, "linear samples"));
@@ -190,14 +190,11 @@ impl DeviceVolume {
 
     /// Refuses a bricked volume whose halo is narrower than filter `d`'s
     /// stencils reach (its fetches would leave the slot).
-    pub fn check_filter(&self, d: &boxforge::derive::Derivation) -> Result<(), GpuError> {
+    pub fn check_filter(&self, d: &boxforge::derive::Derivation) -> Result<(), VolumeError> {
         if let Some(b) = self.bricks {
             let need = boxforge::emit::bricks::brick_halo(d);
             if b.halo < need {
-                return Err(GpuError::Runtime(format!(
-                    "the volume's bricks have a halo of {} texels but filter {} reaches {need}; build the volume with BrickShape::for_filter",
-                    b.halo, d.filter.name
-                )));
+                return Err(VolumeError::HaloTooNarrow { halo: b.halo, filter: d.filter.name.clone(), need });
             }
         }
         Ok(())

@@ -7,6 +7,19 @@ use std::path::{Path, PathBuf};
 /// message names the problem and how to fix it.
 #[derive(Debug, thiserror::Error)]
 pub enum VolumeError {
+    /// The device failed while the samples were uploaded, or lacks a
+    /// feature the requested storage needs.
+    #[error(transparent)]
+    Gpu(#[from] crate::gpu::GpuError),
+    /// The volume is past one of the device's limits (the message names it).
+    #[error(transparent)]
+    Limit(#[from] crate::limits::LimitError),
+    /// Hardware-filtered (linear) fetches asked of a bricked volume.
+    #[error("linear fetches are not offered on the bricked layouts: use exact fetches or the packed layout")]
+    LinearBricked,
+    /// Bricks whose halo is narrower than the filter's stencils reach.
+    #[error("the volume's bricks have a halo of {halo} texels but filter {filter} reaches {need}: build the volume with BrickShape::for_filter")]
+    HaloTooNarrow { halo: usize, filter: String, need: usize },
     /// The file could not be opened or read.
     #[error("cannot read {path}: {source} (check the path and its permissions)")]
     Io { path: PathBuf, source: std::io::Error },
@@ -58,9 +71,18 @@ pub enum VolumeError {
     /// The lattice has no coset-packed layout, or the packed grid is too large.
     #[error("no packed layout for lattice {lattice}: {message}")]
     Packed { lattice: String, message: String },
-    /// A brick shape or pool that cannot hold the volume.
-    #[error("bricked layout: {message}")]
-    Bricks { message: String },
+    /// A brick edge or halo of 0.
+    #[error("bricked layout: brick edge {edge} and halo {halo}: both must be at least 1 (e.g. an edge of 32)")]
+    BrickShape { edge: usize, halo: usize },
+    /// The bricked-packed layout with an odd brick edge or halo.
+    #[error("bricked layout: the bricked-packed layout needs an even brick edge and halo (got {edge} and {halo}); e.g. an edge of 32")]
+    BrickParity { edge: usize, halo: usize },
+    /// More bricks than a pool texture of the device's edge holds.
+    #[error("bricked layout: {bricks} bricks of {slot}^3 texels (halo included) do not fit in a pool texture of {max_edge} per edge; use a larger brick edge or a smaller volume")]
+    PoolFull { bricks: usize, slot: usize, max_edge: usize },
+    /// A pool past i32 texel indexing.
+    #[error("bricked layout: a pool of {texels} texels is too large; use fewer or smaller bricks")]
+    PoolTooLarge { texels: u128 },
     /// A sample format that cannot hold the data.
     #[error("sample format {format}: {message}")]
     Format { format: &'static str, message: String },
@@ -70,15 +92,46 @@ pub enum VolumeError {
         "the file {path} shrank from {old} to {new} bytes while boxforge read it; do not modify a volume while it is rendered (let the writer finish, then open it again)"
     )]
     Shrunk { path: PathBuf, old: u64, new: u64 },
-    /// 4D lattice samples that cannot be built or stored: a box that does
-    /// not match its data, a layout a storage buffer cannot take, a buffer
-    /// past the adapter's binding limit (the message names the fix).
-    #[error("{message}")]
-    FourD { message: String },
-    /// A time series (4D data) that cannot be read as one: no frames,
-    /// frames of different dims, a file of the wrong length or rank.
-    #[error("time series: {message}")]
-    Series { message: String },
+    /// A 4D box with no points, or past i32 indexing.
+    #[error("a 4D box of {dims:?} points is empty or past i32 indexing: use a smaller box")]
+    FourDBox { dims: [usize; 4] },
+    /// 4D data whose length does not match its box.
+    #[error("{len} values for a 4D box of {dims:?} need {expected}: build it with matching dims and data")]
+    FourDLength { dims: [usize; 4], len: usize, expected: usize },
+    /// 4D samples past the adapter's storage-binding limit.
+    #[error("the 4D samples need {} MiB in the {layout} layout, over this adapter's storage binding limit of {} MiB: use fewer frames or a smaller volume{}", bytes.div_ceil(1 << 20), limit >> 20, if *layout == "embedded" { ", or the packed layout (one word per sample)" } else { "" })]
+    FourDTooLarge { bytes: usize, limit: usize, layout: &'static str },
+    /// 4D samples asked for in a layout a storage buffer cannot take.
+    #[error("4D samples are a storage buffer: the {layout} layout is not offered; use the embedded or packed layout")]
+    FourDLayout { layout: &'static str },
+    /// A time series with no frame.
+    #[error("time series: a time series needs at least one frame")]
+    SeriesEmpty,
+    /// A time series past the address space.
+    #[error("time series: {frames} frames of {}x{}x{} are too many samples to address", dims[0], dims[1], dims[2])]
+    SeriesTooLarge { dims: [usize; 3], frames: usize },
+    /// Series data whose length does not match its dims.
+    #[error("time series: {len} values for {frames} frames of {}x{}x{} need {expected}: build it with matching dims and data", dims[0], dims[1], dims[2])]
+    SeriesLength { dims: [usize; 3], frames: usize, len: usize, expected: usize },
+    /// Frames of different dims.
+    #[error("time series: frame {frame} is {}x{}x{} but frame 0 is {}x{}x{}: every frame of a series has the same dims", dims[0], dims[1], dims[2], first[0], first[1], first[2])]
+    SeriesFrameDims { frame: usize, dims: [usize; 3], first: [usize; 3] },
+    /// A file whose rank is not (x, y, z, t).
+    #[error("time series: {path} holds {}-D data with dims {shape:?}: a time series is one 3-D volume per time point (x, y, z, t)", shape.len())]
+    SeriesRank { path: PathBuf, shape: Vec<usize> },
+    /// A frame file without a number in its name.
+    #[error(
+        "time series: {path} has no frame number in its name: name the frames with their number, e.g. frame_007.raw"
+    )]
+    SeriesFrameName { path: PathBuf },
+    /// A folder without frames.
+    #[error(
+        "time series: {dir} holds no .raw files: give a folder of numbered frames (frame_000.raw, frame_001.raw, ...)"
+    )]
+    SeriesNoFrames { dir: PathBuf },
+    /// Two files with one frame number.
+    #[error("time series: {first} and {second} both claim frame {frame}: keep one file per frame number")]
+    SeriesDuplicate { first: PathBuf, second: PathBuf, frame: u64 },
     /// A NaN or infinite sample met while a volume is read box by box.
     #[error(
         "{path}: the sample at voxel ({}, {}, {}) is NaN or infinite; boxforge needs finite samples: replace them (e.g. with 0 or the background value) before loading",

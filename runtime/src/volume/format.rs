@@ -163,14 +163,14 @@ impl SampleFormat {
         if let Some(v) = values.iter().find(|v| !v.is_finite()) {
             return Err(VolumeError::Format {
                 format: self.name(),
-                message: format!("the data holds {v}, which a compact format cannot store; use --format f32"),
+                message: format!("the data holds {v}, which a compact format cannot store; store it as f32"),
             });
         }
         if self == SampleFormat::F16 {
             if let Some(v) = values.iter().find(|v| v.abs() > 65504.0) {
                 return Err(VolumeError::Format {
                     format: self.name(),
-                    message: format!("{v} is past f16's largest value 65504; use --format f32, u16 or u8"),
+                    message: format!("{v} is past f16's largest value 65504; store it as f32, u16 or u8"),
                 });
             }
         }

@@ -43,16 +43,9 @@ impl LatticeVolume4 {
         let expected = checked_count([dims[0], dims[1], dims[2]])?
             .checked_mul(dims[3])
             .filter(|&n| n > 0 && n <= i32::MAX as usize)
-            .ok_or_else(|| VolumeError::FourD {
-                message: format!("a 4D box of {dims:?} points is empty or past i32 indexing: use a smaller box"),
-            })?;
+            .ok_or(VolumeError::FourDBox { dims })?;
         if data.len() != expected {
-            return Err(VolumeError::FourD {
-                message: format!(
-                    "{} values for a 4D box of {dims:?} need {expected}: build it with matching dims and data",
-                    data.len()
-                ),
-            });
+            return Err(VolumeError::FourDLength { dims, len: data.len(), expected });
         }
         Ok(LatticeVolume4 { lattice, dims, data })
     }
@@ -233,16 +226,7 @@ pub fn check_fits(bytes: usize, limit: usize, layout: Layout) -> Result<(), Volu
     if bytes <= limit {
         return Ok(());
     }
-    Err(VolumeError::FourD {
-        message: format!(
-            "the 4D samples need {} MiB in the {} layout, over this adapter's storage binding limit of {} MiB: \
-             use fewer frames or a smaller volume{}",
-            bytes.div_ceil(1 << 20),
-            layout.name(),
-            limit >> 20,
-            if layout == Layout::Embedded { ", or the packed layout (one word per sample)" } else { "" }
-        ),
-    })
+    Err(VolumeError::FourDTooLarge { bytes, limit, layout: layout.name() })
 }
 
 /// A 4D volume on the device: the one storage buffer of `<f>_samples`.
@@ -265,14 +249,7 @@ impl DeviceVolume4 {
         let words = match layout {
             Layout::Embedded => vol.embedded_words(),
             Layout::Packed => vol.packed_words()?,
-            other => {
-                return Err(VolumeError::FourD {
-                    message: format!(
-                    "4D samples are a storage buffer: the {} layout is not offered; use --layout embedded or packed",
-                    other.name()
-                ),
-                })
-            }
+            other => return Err(VolumeError::FourDLayout { layout: other.name() }),
         };
         let bytes = 4 * words.len();
         check_fits(bytes, gpu.device.limits().max_storage_buffer_binding_size as usize, layout)?;

@@ -25,39 +25,32 @@ pub struct VolumeSeries {
     pub data: Vec<f32>,
 }
 
-fn series_error(what: impl Into<String>) -> VolumeError {
-    VolumeError::Series { message: what.into() }
-}
-
 impl VolumeSeries {
     /// A series from dims and data; errors on a zero dim or a length mismatch.
     pub fn new(dims: [usize; 4], data: Vec<f32>) -> Result<VolumeSeries, VolumeError> {
         let per_frame = checked_count([dims[0], dims[1], dims[2]])?;
         if dims[3] == 0 {
-            return Err(series_error("a time series needs at least one frame"));
+            return Err(VolumeError::SeriesEmpty);
         }
-        let expected = per_frame.checked_mul(dims[3]).ok_or_else(|| series_error("too many samples to address"))?;
+        let expected = per_frame
+            .checked_mul(dims[3])
+            .ok_or(VolumeError::SeriesTooLarge { dims: [dims[0], dims[1], dims[2]], frames: dims[3] })?;
         if data.len() != expected {
-            return Err(series_error(format!(
-                "{} values for {} frames of {}x{}x{} need {expected}: build it with matching dims and data",
-                data.len(),
-                dims[3],
-                dims[0],
-                dims[1],
-                dims[2]
-            )));
+            return Err(VolumeError::SeriesLength {
+                dims: [dims[0], dims[1], dims[2]],
+                frames: dims[3],
+                len: data.len(),
+                expected,
+            });
         }
         Ok(VolumeSeries { dims, data })
     }
 
     /// Frames of equal dims, in order.
     pub fn from_frames(frames: Vec<Volume>) -> Result<VolumeSeries, VolumeError> {
-        let first = frames.first().ok_or_else(|| series_error("a time series needs at least one frame"))?.dims;
+        let first = frames.first().ok_or(VolumeError::SeriesEmpty)?.dims;
         if let Some((k, f)) = frames.iter().enumerate().find(|(_, f)| f.dims != first) {
-            return Err(series_error(format!(
-                "frame {k} is {}x{}x{} but frame 0 is {}x{}x{}: every frame of a series has the same dims",
-                f.dims[0], f.dims[1], f.dims[2], first[0], first[1], first[2]
-            )));
+            return Err(VolumeError::SeriesFrameDims { frame: k, dims: f.dims, first });
         }
         let n = frames.len();
         let data = frames.into_iter().flat_map(|f| f.data).collect();
@@ -99,11 +92,7 @@ impl VolumeSeries {
         let obj = ReaderOptions::new().read_file(path).map_err(|e| fail(e.to_string()))?;
         let shape: Vec<usize> = obj.volume().dim().iter().map(|&d| d as usize).collect();
         if shape.len() < 3 || shape.get(4..).is_some_and(|rest| rest.iter().any(|&d| d != 1)) {
-            return Err(series_error(format!(
-                "{} holds {}-D data with dims {shape:?}: a time series is one 3-D volume per time point (x, y, z, t)",
-                path.display(),
-                shape.len()
-            )));
+            return Err(VolumeError::SeriesRank { path: path.to_path_buf(), shape });
         }
         let dims = [shape[0], shape[1], shape[2], shape.get(3).copied().unwrap_or(1)];
         let array = obj.into_volume().into_ndarray::<f32>().map_err(|e| fail(e.to_string()))?;
@@ -127,28 +116,17 @@ impl VolumeSeries {
                 continue;
             }
             let stem = path.file_stem().and_then(|s| s.to_str()).unwrap_or_default().to_string();
-            let number = frame_number(&stem).ok_or_else(|| {
-                series_error(format!(
-                    "{} has no frame number in its name: name the frames with their number, e.g. frame_007.raw",
-                    path.display()
-                ))
-            })?;
+            let Some(number) = frame_number(&stem) else {
+                return Err(VolumeError::SeriesFrameName { path });
+            };
             files.push((number, path));
         }
         if files.is_empty() {
-            return Err(series_error(format!(
-                "{} holds no .raw files: give a folder of numbered frames (frame_000.raw, frame_001.raw, ...)",
-                dir.display()
-            )));
+            return Err(VolumeError::SeriesNoFrames { dir: dir.to_path_buf() });
         }
         files.sort();
         if let Some(w) = files.windows(2).find(|w| w[0].0 == w[1].0) {
-            return Err(series_error(format!(
-                "{} and {} both claim frame {}: keep one file per frame number",
-                w[0].1.display(),
-                w[1].1.display(),
-                w[0].0
-            )));
+            return Err(VolumeError::SeriesDuplicate { first: w[0].1.clone(), second: w[1].1.clone(), frame: w[0].0 });
         }
         let frames = files.iter().map(|(_, p)| Volume::load_raw(p, dims, ty)).collect::<Result<Vec<_>, _>>()?;
         VolumeSeries::from_frames(frames)

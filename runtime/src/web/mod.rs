@@ -48,6 +48,9 @@ pub enum WebError {
     /// A shader of the site could not be assembled.
     #[error(transparent)]
     Shader(#[from] crate::gpu::GpuError),
+    /// A renderer's module could not be assembled.
+    #[error(transparent)]
+    Render(#[from] crate::render::RenderError),
     /// A transfer-function preset did not load.
     #[error(transparent)]
     TransferFunction(#[from] crate::render::dvr::transfer::TfError),

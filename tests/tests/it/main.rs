@@ -1,6 +1,7 @@
 //! Cross-crate integration tests in one binary.
 
 mod d4;
+mod error_texts;
 mod file_sizes;
 mod fuzz_corpus;
 mod import_cycles;

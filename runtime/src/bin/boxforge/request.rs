@@ -363,6 +363,7 @@ pub fn perm_failure(e: &PermError) -> String {
         ),
         PermError::Gpu(e) => e.to_string(),
         PermError::Render(e) => e.to_string(),
+        PermError::Volume(e) => e.to_string(),
     }
 }
 

@@ -15,7 +15,7 @@ use super::skip::{empty_flags, skip_distances};
 use super::transfer::{Preint, Tf1d};
 use super::{DvrLook, DvrOptions};
 use crate::gpu::timing::timed_banded_frames;
-use crate::gpu::{Gpu, GpuError};
+use crate::gpu::Gpu;
 use crate::render::camera::{Camera, Target};
 use crate::render::iso::Frame;
 use crate::render::present::{image_buffer, FrameImage, Presenter};
@@ -73,7 +73,7 @@ pub(crate) struct DvrCaster {
 impl DvrCaster {
     /// Uploads `table`'s entries, its pre-integration for `look.step` when
     /// `look.preintegrate`, and the skipping flags of `parts.bounds`.
-    pub(crate) fn new(gpu: &Gpu, table: Tf1d, look: DvrLook, parts: CasterParts) -> Result<DvrCaster, GpuError> {
+    pub(crate) fn new(gpu: &Gpu, table: Tf1d, look: DvrLook, parts: CasterParts) -> Result<DvrCaster, RenderError> {
         let pi = look.preintegrate.then(|| table.preintegrate(look.step as f64));
         Self::with_preint(gpu, table, pi.as_ref(), look, parts)
     }
@@ -86,7 +86,7 @@ impl DvrCaster {
         pi: Option<&Preint>,
         look: DvrLook,
         parts: CasterParts,
-    ) -> Result<DvrCaster, GpuError> {
+    ) -> Result<DvrCaster, RenderError> {
         let look = DvrLook { preintegrate: pi.is_some(), ..look };
         let empty = empty_flags(&parts.bounds, &table);
         let empty_blocks = empty.iter().filter(|&&f| f != 0).count() as f64 / empty.len().max(1) as f64;
@@ -122,8 +122,12 @@ impl DvrCaster {
     }
 
     /// A compute pipeline of `shader`'s `entry` on this core's two groups.
-    pub(crate) fn pipeline(&self, shader: &wgpu::ShaderModule, entry: &str) -> Result<wgpu::ComputePipeline, GpuError> {
-        self.gpu.pipeline(self.label, shader, &[&self.samples_layout, &self.layout], entry)
+    pub(crate) fn pipeline(
+        &self,
+        shader: &wgpu::ShaderModule,
+        entry: &str,
+    ) -> Result<wgpu::ComputePipeline, RenderError> {
+        Ok(self.gpu.pipeline(self.label, shader, &[&self.samples_layout, &self.layout], entry)?)
     }
 
     /// The fraction of blocks the transfer function leaves transparent.
@@ -250,14 +254,14 @@ impl DvrCaster {
     }
 
     /// One dispatch of `pipeline` over the whole prepared image.
-    pub(crate) fn dispatch_image(&self, pipeline: &wgpu::ComputePipeline) -> Result<(), GpuError> {
-        let frame = self.frame.as_ref().ok_or_else(|| GpuError::Runtime("no frame was prepared".into()))?;
-        self.gpu.dispatch(
+    pub(crate) fn dispatch_image(&self, pipeline: &wgpu::ComputePipeline) -> Result<(), RenderError> {
+        let frame = self.frame.as_ref().ok_or(RenderError::NoFrame)?;
+        Ok(self.gpu.dispatch(
             self.label,
             pipeline,
             &[&self.samples, &frame.caster],
             (frame.width.div_ceil(8), frame.height.div_ceil(8), 1),
-        )
+        )?)
     }
 
     /// The image and the group-1 bind group for a `width` x `height` frame

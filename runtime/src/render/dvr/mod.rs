@@ -51,8 +51,8 @@ pub(crate) use scene::Custom;
 pub use scene::{render, DvrScene};
 pub use skip::{empty_flags, skip_distances, skip_flags, widen_bounds};
 
-use crate::gpu::GpuError;
 use crate::render::iso::RenderOptions;
+use crate::render::RenderError;
 use boxforge::derive::Derivation;
 use boxforge::emit::{emit, EmitOptions, Layout};
 
@@ -156,7 +156,7 @@ pub(crate) fn dvr_template_with(name: &str, lookup: bool, host_depth: bool) -> S
 
 /// Refuses the curvature transfer function where it cannot be: a filter
 /// without `<f>_eval_hessian` (degree 1), a radius not finite and > 0.
-pub(crate) fn check_curvature_tf(d: &Derivation, radius: f32) -> Result<(), GpuError> {
+pub(crate) fn check_curvature_tf(d: &Derivation, radius: f32) -> Result<(), RenderError> {
     let shade =
         crate::render::iso::Shade { mode: crate::render::iso::ShadeMode::Curvature, radius, ..Default::default() };
     crate::render::iso::check_shade(d, &shade)
@@ -187,7 +187,7 @@ fn dvr_template_full(name: &str, lookup: bool, host_depth: bool, curvature: Opti
 }
 
 /// The emitted module with the DVR template appended.
-pub fn shader_source(d: &Derivation, layout: Layout) -> Result<String, GpuError> {
+pub fn shader_source(d: &Derivation, layout: Layout) -> Result<String, RenderError> {
     shader_source_with(d, &module_options(layout), false)
 }
 
@@ -201,19 +201,19 @@ pub(crate) const DVR_COMMAND: &str = "boxforge render --mode dvr";
 
 /// [`shader_source`], with `lookup` the ray caster sampling through
 /// `<f>_perm_sample` ([`dvr_template`]), which the caller appends.
-pub(crate) fn shader_source_with(d: &Derivation, module: &EmitOptions, lookup: bool) -> Result<String, GpuError> {
+pub(crate) fn shader_source_with(d: &Derivation, module: &EmitOptions, lookup: bool) -> Result<String, RenderError> {
     Ok(format!("{}\n{}", filter_module_with(d, module)?, dvr_template(&d.filter.name, lookup)))
 }
 
 /// The emitted filter module (fetch, eval, eval_grad, min/max kernel).
 #[cfg(any(test, feature = "references"))]
-pub(crate) fn filter_module(d: &Derivation, layout: Layout) -> Result<String, GpuError> {
+pub(crate) fn filter_module(d: &Derivation, layout: Layout) -> Result<String, RenderError> {
     filter_module_with(d, &module_options(layout))
 }
 
 /// [`filter_module`] with the emitter's options (a volume's
 /// [`DeviceVolume::emit_options`](crate::volume::DeviceVolume::emit_options)).
-pub(crate) fn filter_module_with(d: &Derivation, module: &EmitOptions) -> Result<String, GpuError> {
-    let module = emit(d, module).map_err(|e| GpuError::Runtime(e.to_string()))?;
+pub(crate) fn filter_module_with(d: &Derivation, module: &EmitOptions) -> Result<String, RenderError> {
+    let module = emit(d, module)?;
     Ok(module.source)
 }

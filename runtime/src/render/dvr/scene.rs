@@ -2,10 +2,11 @@
 
 use super::{dvr_params, empty_flags, skip_distances, widen_bounds, DvrOptions, DvrParams};
 use crate::gpu::binding::storage_entry;
-use crate::gpu::{Gpu, GpuError};
+use crate::gpu::Gpu;
 use crate::render::blocks::block_bounds;
 use crate::render::dvr::transfer::{Preint, Tf1d, TransferFunction};
 use crate::render::iso::Frame;
+use crate::render::RenderError;
 use crate::volume::{DeviceVolume, LatticeVolume, VolumeOptions};
 use boxforge::derive::Derivation;
 use boxforge::emit::Layout;
@@ -38,7 +39,7 @@ impl<'a> DvrScene<'a> {
         vol: &'a LatticeVolume,
         layout: Layout,
         block: i32,
-    ) -> Result<DvrScene<'a>, GpuError> {
+    ) -> Result<DvrScene<'a>, RenderError> {
         Self::with_volume(gpu, d, vol, layout, block, &VolumeOptions::default())
     }
 
@@ -51,7 +52,7 @@ impl<'a> DvrScene<'a> {
         layout: Layout,
         block: i32,
         volume: &VolumeOptions,
-    ) -> Result<DvrScene<'a>, GpuError> {
+    ) -> Result<DvrScene<'a>, RenderError> {
         Self::with_curvature(gpu, d, vol, layout, block, volume, None)
     }
 
@@ -66,7 +67,7 @@ impl<'a> DvrScene<'a> {
         block: i32,
         volume: &VolumeOptions,
         curvature: Option<f32>,
-    ) -> Result<DvrScene<'a>, GpuError> {
+    ) -> Result<DvrScene<'a>, RenderError> {
         if let Some(radius) = curvature {
             super::check_curvature_tf(d, radius)?;
         }
@@ -96,7 +97,7 @@ impl<'a> DvrScene<'a> {
         layout: Layout,
         block: i32,
         custom: Custom<'_>,
-    ) -> Result<DvrScene<'a>, GpuError> {
+    ) -> Result<DvrScene<'a>, RenderError> {
         let dv = DeviceVolume::new(gpu, vol, layout)?;
         Self::with_device_volume(gpu, d, vol, dv, block, custom)
     }
@@ -109,7 +110,7 @@ impl<'a> DvrScene<'a> {
         dv: DeviceVolume,
         block: i32,
         custom: Custom<'_>,
-    ) -> Result<DvrScene<'a>, GpuError> {
+    ) -> Result<DvrScene<'a>, RenderError> {
         let name = custom.name;
         let shader = gpu.compile(&format!("{name}.dvr.wgsl"), custom.source)?;
         let dev = &gpu.device;
@@ -145,7 +146,7 @@ impl<'a> DvrScene<'a> {
     /// Renders one image (a warm-up frame, then `o.frames` timed frames);
     /// `empty_blocks` is the fraction of blocks the transfer function leaves
     /// transparent (fewer are skipped: see `skip::skip_flags`).
-    pub fn render(&self, tf: &TransferFunction, o: &DvrOptions) -> Result<Frame, GpuError> {
+    pub fn render(&self, tf: &TransferFunction, o: &DvrOptions) -> Result<Frame, RenderError> {
         let table = tf.table();
         let pi = if o.preintegrate { Some(table.preintegrate(o.step as f64)) } else { None };
         self.render_tables(&table, pi.as_ref(), o)
@@ -153,25 +154,28 @@ impl<'a> DvrScene<'a> {
 
     /// [`DvrScene::render`] with tables already built (the pre-integration
     /// table must be for `o.step`; None renders without pre-integration).
-    pub fn render_tables(&self, table: &Tf1d, pi: Option<&Preint>, o: &DvrOptions) -> Result<Frame, GpuError> {
+    pub fn render_tables(&self, table: &Tf1d, pi: Option<&Preint>, o: &DvrOptions) -> Result<Frame, RenderError> {
         let (gpu, dev) = (self.gpu, &self.gpu.device);
         if o.block != self.block {
-            return Err(GpuError::Runtime(format!(
-                "the scene's block grid has edge {}, the options ask for {}",
-                self.block, o.block
-            )));
+            return Err(RenderError::BuiltForOther {
+                what: "scene's block grid",
+                built: format!("block edge {}", self.block),
+                asked: format!("block edge {}", o.block),
+            });
         }
         if o.curvature != self.curvature {
-            return Err(GpuError::Runtime(format!(
-                "the scene's shader has curvature transfer function {:?}, the options ask for {:?}: build the scene with DvrScene::with_curvature",
-                self.curvature, o.curvature
-            )));
+            return Err(RenderError::BuiltForOther {
+                what: "scene's shader (DvrScene::with_curvature)",
+                built: format!("curvature transfer function {:?}", self.curvature),
+                asked: format!("{:?}", o.curvature),
+            });
         }
         if let Some(p) = pi.filter(|p| p.step != o.step) {
-            return Err(GpuError::Runtime(format!(
-                "the pre-integration table is for step {}, the options ask for step {}",
-                p.step, o.step
-            )));
+            return Err(RenderError::BuiltForOther {
+                what: "pre-integration table",
+                built: format!("step {}", p.step),
+                asked: format!("step {}", o.step),
+            });
         }
         let o = &DvrOptions { preintegrate: pi.is_some(), ..o.clone() };
         let pi_size = pi.map_or(2, |p| p.size);
@@ -253,6 +257,6 @@ pub fn render(
     layout: Layout,
     tf: &TransferFunction,
     o: &DvrOptions,
-) -> Result<Frame, GpuError> {
+) -> Result<Frame, RenderError> {
     DvrScene::with_curvature(gpu, d, vol, layout, o.block, &o.volume, o.curvature)?.render(tf, o)
 }

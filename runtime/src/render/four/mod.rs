@@ -241,10 +241,8 @@ impl<'a> FourIsoRenderer<'a> {
     /// The generator's refusal, a volume the device cannot hold, device errors.
     pub fn new(gpu: &'a Gpu, d: &Derivation, vol: &LatticeVolume4, layout: Layout) -> Result<Self, RenderError> {
         let module =
-            emit(d, &EmitOptions { layout, kernels: false, command: "boxforge render".into(), ..Default::default() })
-                .map_err(|e| RenderError::Gpu(crate::gpu::GpuError::Runtime(e.to_string())))?;
-        let dv = DeviceVolume4::new(gpu, vol, layout)
-            .map_err(|e| RenderError::Gpu(crate::gpu::GpuError::Runtime(e.to_string())))?;
+            emit(d, &EmitOptions { layout, kernels: false, command: "boxforge render".into(), ..Default::default() })?;
+        let dv = DeviceVolume4::new(gpu, vol, layout)?;
         let source = format!("{}\n{}", module.source, shader(&d.filter.name));
         let sm = gpu.compile(&module.file_name, &source)?;
         let dev = &gpu.device;
@@ -328,10 +326,7 @@ impl FourIsoRenderer<'_> {
         if let Some(p) = self.exact_pipeline.get() {
             return Ok(p);
         }
-        let plan = self
-            .plan
-            .as_ref()
-            .ok_or(RenderError::Gpu(crate::gpu::GpuError::Runtime("the exact hit needs a 4D filter".into())))?;
+        let plan = self.plan.as_ref().ok_or(RenderError::NotFourD)?;
         let source = format!("{}\n{}", self.source, hit::exact_shader(&self.name, plan));
         let sm = self.gpu.compile(&self.file_name, &source)?;
         let p = self.gpu.pipeline("four_exact_main", &sm, &[&self.bgl0, &self.bgl1], "four_exact_main")?;

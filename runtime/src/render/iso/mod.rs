@@ -8,7 +8,7 @@ pub mod hit;
 pub mod renderer;
 pub(crate) mod template;
 
-use crate::gpu::{Gpu, GpuError};
+use crate::gpu::Gpu;
 use crate::render::RenderError;
 use crate::volume::DeviceVolume;
 use crate::volume::LatticeVolume;
@@ -193,7 +193,7 @@ pub fn render(
     vol: &LatticeVolume,
     layout: Layout,
     o: &RenderOptions,
-) -> Result<Frame, GpuError> {
+) -> Result<Frame, RenderError> {
     render_with_depth(gpu, d, vol, layout, o).map(|(frame, _)| frame)
 }
 
@@ -208,7 +208,7 @@ pub fn raycast_shader(
     hit: HitMode,
     fine: (i32, [i32; 3]),
     command: &str,
-) -> Result<String, GpuError> {
+) -> Result<String, RenderError> {
     let opts = EmitOptions { layout, command: command.into(), ..Default::default() };
     raycast_shader_with(d, &opts, hit, fine, false, &Shade::default())
 }
@@ -222,9 +222,9 @@ pub(crate) fn raycast_shader_with(
     fine: (i32, [i32; 3]),
     host_depth: bool,
     shade: &Shade,
-) -> Result<String, GpuError> {
+) -> Result<String, RenderError> {
     check_shade(d, shade)?;
-    let module = emit(d, module).map_err(|e| GpuError::Runtime(e.to_string()))?;
+    let module = emit(d, module)?;
     let plan = HitPlan::new(d);
     let exact = (hit == HitMode::Exact).then_some((&plan, fine.0, fine.1));
     let curvature = shade.mode.needs_hessian();
@@ -234,21 +234,16 @@ pub(crate) fn raycast_shader_with(
 
 /// Curvature shading needs `<f>_eval_hessian` (degree >= 2) and positive
 /// radius and thickness.
-pub fn check_shade(d: &Derivation, shade: &Shade) -> Result<(), GpuError> {
+pub fn check_shade(d: &Derivation, shade: &Shade) -> Result<(), RenderError> {
     if shade.mode.needs_hessian() && d.facts.degree < 2 {
-        return Err(GpuError::Runtime(format!(
-            "--shade {} needs second derivatives, but {} has degree {} (its pieces are linear, its Hessian zero); \
-             use a filter of degree >= 2 such as bcc7 or cc_tricubic",
-            shade.mode.name(),
-            d.filter.name,
-            d.facts.degree
-        )));
+        return Err(RenderError::ShadeNeedsDegree {
+            mode: shade.mode.name(),
+            filter: d.filter.name.clone(),
+            degree: d.facts.degree,
+        });
     }
     if !(shade.radius.is_finite() && shade.radius > 0.0 && shade.thickness.is_finite() && shade.thickness > 0.0) {
-        return Err(GpuError::Runtime(format!(
-            "curvature radius {} and contour thickness {} must be finite and > 0",
-            shade.radius, shade.thickness
-        )));
+        return Err(RenderError::ShadeControls { radius: shade.radius, thickness: shade.thickness });
     }
     Ok(())
 }
@@ -283,14 +278,10 @@ pub fn render_with_depth(
     vol: &LatticeVolume,
     layout: Layout,
     o: &RenderOptions,
-) -> Result<(Frame, Vec<f32>), GpuError> {
-    let as_gpu = |e: RenderError| match e {
-        RenderError::Gpu(g) => g,
-        other => GpuError::Runtime(other.to_string()),
-    };
+) -> Result<(Frame, Vec<f32>), RenderError> {
     let dv = DeviceVolume::with_options(gpu, vol, layout, &o.volume)?;
-    let mut iso = renderer::IsoRenderer::new(gpu, d, &dv, renderer::IsoOptions::from(o)).map_err(as_gpu)?;
-    iso.timed_frames(o).map_err(as_gpu)
+    let mut iso = renderer::IsoRenderer::new(gpu, d, &dv, renderer::IsoOptions::from(o))?;
+    iso.timed_frames(o)
 }
 
 #[cfg(feature = "files")]

@@ -8,7 +8,8 @@
 //! same samples as in core, so the bounds are the in-core bounds.
 
 use crate::gpu::binding::{samples_texture_entry, storage_entry};
-use crate::gpu::{Gpu, GpuError};
+use crate::gpu::Gpu;
+use crate::render::RenderError;
 use crate::volume::{BrickSource, SampleFormat};
 use boxforge::derive::Derivation;
 use boxforge::emit::{emit, EmitOptions, Layout, SampleMap};
@@ -39,10 +40,9 @@ pub fn brick_row_bounds(
     block: usize,
     max_texels: usize,
     progress: &dyn Fn(usize, usize),
-) -> Result<Vec<[f32; 2]>, GpuError> {
+) -> Result<Vec<[f32; 2]>, RenderError> {
     let name = &d.filter.name;
     let dims = source.dims();
-    let runtime = |e: crate::volume::VolumeError| GpuError::Runtime(e.to_string());
     let period = lattice_period(source.lattice());
     let reach = boxforge::emit::bricks::brick_halo(d);
     let halo = reach.div_ceil(period) * period;
@@ -55,8 +55,7 @@ pub fn brick_row_bounds(
             command: "boxforge render (bricked bounds)".into(),
             ..Default::default()
         },
-    )
-    .map_err(|e| GpuError::Runtime(e.to_string()))?;
+    )?;
     let shader = gpu.compile(&module.file_name, &module.source)?;
     let dev = &gpu.device;
     let entries = [
@@ -122,10 +121,10 @@ pub fn brick_row_bounds(
                             (kz * brick) as i64 - halo as i64,
                         ];
                         values.resize(size[0] * size[1] * size[2], 0.0);
-                        source.read_box(lo, size, &mut values).map_err(runtime)?;
+                        source.read_box(lo, size, &mut values)?;
                         // The samples the renderer will read, in its texture
                         // format (the device's conversion of stored texels is the same).
-                        let stored = format.encode_rows(&values, map, size[0]).map_err(runtime)?;
+                        let stored = format.encode_rows(&values, map, size[0])?;
                         gpu.queue.write_texture(
                             wgpu::TexelCopyTextureInfo {
                                 texture: &tex,

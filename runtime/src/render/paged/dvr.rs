@@ -10,7 +10,7 @@
 use super::pool::{BrickPool, Reserve};
 use super::{check_pixels, occupied, PagedOptions, PagedStats};
 use crate::gpu::binding::layout_entries_from;
-use crate::gpu::{Gpu, GpuError};
+use crate::gpu::Gpu;
 use crate::memory::trace_memory;
 use crate::render::blocks::blocks_per_axis;
 use crate::render::dvr::caster::{CasterParts, DvrCaster, Extra};
@@ -54,11 +54,8 @@ impl PagedDvrRenderer {
         options: PagedOptions,
         progress: &dyn Fn(usize, usize),
     ) -> Result<PagedDvrRenderer, RenderError> {
-        let fail = |m: String| RenderError::Gpu(GpuError::Runtime(m));
         if look.curvature.is_some() {
-            return Err(fail(
-                "the curvature transfer function is not rendered out of core: drop the curvature or the budget".into(),
-            ));
+            return Err(RenderError::PagedCurvature);
         }
         let name = d.filter.name.clone();
         let pi = look.preintegrate.then(|| table.preintegrate(look.step as f64));
@@ -82,7 +79,7 @@ impl PagedDvrRenderer {
             kernels: false,
             ..Default::default()
         };
-        let m = emit(d, &module).map_err(|e| fail(e.to_string()))?;
+        let m = emit(d, &module)?;
         let text = format!("{}\n{}", m.source, crate::render::dvr::dvr_template_paged(&name));
         let label = format!("{name}.paged_dvr.wgsl");
         let shader = gpu.compile(&label, &text)?;
@@ -128,7 +125,7 @@ impl PagedDvrRenderer {
         enc.clear_buffer(&self.resume, 0, Some(pixels * RESUME_BYTES));
         self.gpu.queue.submit([enc.finish()]);
         let (caster, pipeline) = (&self.caster, &self.pipeline);
-        let mut stats = self.pool.run_passes(source, || Ok(caster.dispatch_image(pipeline)?))?;
+        let mut stats = self.pool.run_passes(source, || caster.dispatch_image(pipeline))?;
         let ms = start.elapsed().as_secs_f64() * 1e3;
         let frame = self.caster.read_image(ms)?;
         stats.occupied_bricks = self.occupied_bricks;

@@ -5,7 +5,7 @@
 use super::pool::{BrickPool, Reserve};
 use super::{occupied, PagedOptions, PagedStats};
 use crate::gpu::binding::{entries_for, layout_entries_from};
-use crate::gpu::{Gpu, GpuError};
+use crate::gpu::Gpu;
 use crate::memory::trace_memory;
 use crate::render::blocks::{self, SkipMap};
 use crate::render::iso::{ray_params_for, Frame, RayParams, RenderOptions};
@@ -42,7 +42,6 @@ impl PagedIsoRenderer {
         options: PagedOptions,
         progress: &dyn Fn(usize, usize),
     ) -> Result<PagedIsoRenderer, RenderError> {
-        let fail = |m: String| RenderError::Gpu(GpuError::Runtime(m));
         let name = d.filter.name.clone();
         let (pool, bounds) = BrickPool::new(gpu, d, source, &options, RESERVE, progress)?;
         let options = PagedOptions { block: pool.block as i32, ..options };
@@ -73,7 +72,7 @@ impl PagedIsoRenderer {
             kernels: false,
             ..Default::default()
         };
-        let m = emit(d, &module).map_err(|e| fail(e.to_string()))?;
+        let m = emit(d, &module)?;
         let source_text = format!("{}\n{}", m.source, crate::render::iso::template::paged_template(&name));
         let shader = gpu.compile(&format!("{name}.paged.wgsl"), &source_text)?;
         let bindings = gpu.bindings_of(&source_text)?;

@@ -29,7 +29,6 @@ mod pool;
 pub use dvr::PagedDvrRenderer;
 pub use iso::PagedIsoRenderer;
 
-use crate::gpu::GpuError;
 use crate::render::RenderError;
 use crate::volume::{BrickShape, SampleFormat};
 
@@ -110,9 +109,7 @@ fn check_pixels(width: u32, height: u32, max_pixels: u64) -> Result<u64, RenderE
         return Err(RenderError::EmptyTarget);
     }
     if pixels > max_pixels {
-        return Err(RenderError::Gpu(GpuError::Runtime(format!(
-            "a {width}x{height} frame is larger than the {max_pixels} pixels this renderer's budget reserved (PagedOptions::max_pixels)"
-        ))));
+        return Err(RenderError::FrameTooLarge { width, height, max_pixels });
     }
     Ok(pixels)
 }
@@ -134,17 +131,5 @@ fn occupied(empty: &[u32], grid: [i32; 3], bricks: [usize; 3], per: usize) -> us
     occ.iter().filter(|&&o| o).count()
 }
 
-/// Bytes as KiB, MiB or GiB.
-pub fn human(bytes: u64) -> String {
-    const K: f64 = 1024.0;
-    let b = bytes as f64;
-    if b >= K * K * K {
-        format!("{:.2} GiB", b / (K * K * K))
-    } else if b >= K * K {
-        format!("{:.1} MiB", b / (K * K))
-    } else if b >= K {
-        format!("{:.1} KiB", b / K)
-    } else {
-        format!("{bytes} B")
-    }
-}
+/// Bytes as KiB, MiB or GiB (the messages and reports of the budget).
+pub use crate::memory::human;

@@ -8,8 +8,8 @@
 
 use super::bounds;
 use super::cache::{requested_bricks, BrickCache};
-use super::{human, PagedOptions, PagedStats, MAX_PASSES};
-use crate::gpu::{Gpu, GpuError};
+use super::{PagedOptions, PagedStats, MAX_PASSES};
+use crate::gpu::Gpu;
 use crate::memory::trace_memory;
 use crate::render::RenderError;
 use crate::volume::{slot_grid, BrickShape, BrickSource, SampleFormat};
@@ -56,10 +56,6 @@ pub(crate) struct BrickPool {
     pass_stamp: u64,
 }
 
-fn fail(m: String) -> RenderError {
-    RenderError::Gpu(GpuError::Runtime(m))
-}
-
 impl BrickPool {
     /// Picks the block edge (doubling from `options.block` until the
     /// renderer's bounds table fits one storage binding and an eighth of the
@@ -88,10 +84,7 @@ impl BrickPool {
             block *= 2;
         }
         if options.brick == 0 || !options.brick.is_multiple_of(block) || !options.brick.is_multiple_of(period) {
-            return Err(fail(format!(
-                "brick edge {} must be a multiple of the block edge {block} and of the lattice's period {period}; e.g. --brick 32",
-                options.brick
-            )));
+            return Err(RenderError::BrickEdge { brick: options.brick, block, period });
         }
         let format = options.format;
         // A slot is uploaded on its own: with four u8 samples a texel its
@@ -116,14 +109,14 @@ impl BrickPool {
             + 1024;
         let need = fixed_bytes + 8 * slot_bytes;
         if options.budget < need {
-            return Err(fail(format!(
-                "a device budget of {} is too small: the page table, block bounds and image buffers take {} and the pool needs at least 8 brick slots of {} ({slot}^3 texels of {}); give at least {}",
-                human(options.budget),
-                human(fixed_bytes),
-                human(slot_bytes),
-                format.name(),
-                human(need)
-            )));
+            return Err(RenderError::BudgetTooSmall {
+                budget: options.budget,
+                fixed: fixed_bytes,
+                slot_bytes,
+                slot,
+                format: format.name(),
+                need,
+            });
         }
         let max_edge = options.max_pool_edge.unwrap_or(gpu.limits().max_texture_dimension_3d as usize);
         let by_budget = ((options.budget - fixed_bytes) / slot_bytes) as usize;
@@ -140,15 +133,13 @@ impl BrickPool {
             });
         let capacity = slots.iter().product::<usize>();
         if capacity < 8.min(nbricks) {
-            return Err(fail(format!(
-                "a pool texture of at most {max_edge} texels per edge holds {capacity} slots of {slot}^3; use a smaller --brick"
-            )));
+            return Err(RenderError::PoolEdge { max_edge, capacity, slot });
         }
         trace_memory("start");
         // Only the normalized formats need the range (a pass over the source).
         let map = match format {
             SampleFormat::U8 | SampleFormat::U16 => {
-                let (lo, hi) = source.sample_range().map_err(|e| fail(e.to_string()))?;
+                let (lo, hi) = source.sample_range()?;
                 format.map_for(lo, hi)
             }
             SampleFormat::F32 | SampleFormat::F16 => SampleMap::IDENTITY,
@@ -294,8 +285,8 @@ impl BrickPool {
         let kk = [k % self.bricks[0], (k / self.bricks[0]) % self.bricks[1], k / (self.bricks[0] * self.bricks[1])];
         let lo = kk.map(|c| c as i64 * b - h);
         scratch.resize(s * s * s, 0.0);
-        source.read_box(lo, [s, s, s], scratch).map_err(|e| fail(e.to_string()))?;
-        let bytes = self.format.encode_rows(scratch, self.map, s).map_err(|e| fail(e.to_string()))?;
+        source.read_box(lo, [s, s, s], scratch)?;
+        let bytes = self.format.encode_rows(scratch, self.map, s)?;
         let sc = self.cache.slot_coords(slot);
         let per = self.format.per_texel();
         self.gpu.queue.write_texture(
@@ -335,10 +326,7 @@ impl BrickPool {
         loop {
             passes += 1;
             if passes > MAX_PASSES {
-                return Err(fail(format!(
-                    "the frame did not complete in {MAX_PASSES} passes: the pool of {} slots is too small for the bricks its rays need at once; raise the budget",
-                    self.cache.capacity()
-                )));
+                return Err(RenderError::FrameIncomplete { passes: MAX_PASSES, slots: self.cache.capacity() });
             }
             gpu.queue.write_buffer(&self.requests, 0, &vec![0u8; words * 4]);
             dispatch()?;
@@ -354,10 +342,7 @@ impl BrickPool {
             self.pass_stamp += 1;
             let admitted = self.cache.admit(&wanted, self.pass_stamp);
             if admitted.is_empty() {
-                return Err(fail(format!(
-                    "{pending} rays wait for bricks but none fits the pool of {} slots: raise the budget",
-                    self.cache.capacity()
-                )));
+                return Err(RenderError::PoolStarved { pending: pending as u64, slots: self.cache.capacity() });
             }
             // Uploads go through staging memory until their copy has run:
             // flush every 2 MiB of it, so the staging never holds a pass's

@@ -117,6 +117,9 @@ pub enum PermError {
     /// A frame could not be drawn (an empty or too large target).
     #[error(transparent)]
     Render(#[from] crate::render::RenderError),
+    /// The volume could not be stored on the device.
+    #[error(transparent)]
+    Volume(#[from] crate::volume::VolumeError),
 }
 
 impl PermCache {

@@ -4,11 +4,12 @@
 //! per-frame core as [`super::PermRenderer`].
 
 use super::{PermCache, PermError, PermRenderer, Quant};
-use crate::gpu::{Gpu, GpuError};
+use crate::gpu::Gpu;
 use crate::render::dvr::caster::{look_of, CasterParts, DvrCaster};
 use crate::render::dvr::transfer::{Preint, Tf1d, TransferFunction};
 use crate::render::dvr::{DvrLook, DvrOptions, DvrScene};
 use crate::render::iso::Frame;
+use crate::render::RenderError;
 use crate::volume::DeviceVolume;
 
 impl PermCache {
@@ -21,31 +22,30 @@ impl PermCache {
         table: &Tf1d,
         pi: Option<&Preint>,
         o: &DvrOptions,
-    ) -> Result<Frame, GpuError> {
+    ) -> Result<Frame, RenderError> {
         if let Some(t) = self.peel_termination.filter(|&t| o.termination > t) {
-            return Err(GpuError::Runtime(format!(
-                "this PERM cache was peeled for rays that stop at opacity {t}; a render with termination {} may reach peeled cells: build one for it",
-                o.termination
-            )));
+            return Err(RenderError::PermPeeled { peeled: t, asked: o.termination });
         }
         if table.entries != self.table || o.step > self.step || pi.is_some() != self.preintegrate {
-            return Err(GpuError::Runtime(format!(
-                "this PERM cache was built for another transfer function or for step {} (pre-integrated: {}); build one for these options",
-                self.step, self.preintegrate
-            )));
+            return Err(RenderError::BuiltForOther {
+                what: "PERM cache",
+                built: format!("its transfer function at step {} (pre-integrated: {})", self.step, self.preintegrate),
+                asked: format!("another transfer function or step {} (pre-integrated: {})", o.step, pi.is_some()),
+            });
         }
         if o.block != scene.block() {
-            return Err(GpuError::Runtime(format!(
-                "the scene's block grid has edge {}, the options ask for {}",
-                scene.block(),
-                o.block
-            )));
+            return Err(RenderError::BuiltForOther {
+                what: "scene's block grid",
+                built: format!("block edge {}", scene.block()),
+                asked: format!("block edge {}", o.block),
+            });
         }
         if let Some(p) = pi.filter(|p| p.step != o.step) {
-            return Err(GpuError::Runtime(format!(
-                "the pre-integration table is for step {}, the options ask for step {}",
-                p.step, o.step
-            )));
+            return Err(RenderError::BuiltForOther {
+                what: "pre-integration table",
+                built: format!("step {}", p.step),
+                asked: format!("step {}", o.step),
+            });
         }
         let look = DvrLook { preintegrate: pi.is_some(), ..look_of(o) };
         let parts = CasterParts {
@@ -58,7 +58,7 @@ impl PermCache {
             extra: self.extras(),
         };
         let mut core = DvrCaster::with_preint(scene.gpu, table.clone(), pi, look, parts)?;
-        core.timed_frames(&self.pipeline, o).map_err(|e| e.into_gpu())
+        core.timed_frames(&self.pipeline, o)
     }
 }
 

@@ -11,7 +11,7 @@
 pub use super::data::{packed_data, visibility_masks, Normals, PtParams, PtStats, Shading};
 use super::renderer::{PtOptions, PtRenderer};
 use super::tets::Grid;
-use crate::gpu::{Gpu, GpuError};
+use crate::gpu::Gpu;
 use crate::render::camera::Camera;
 use crate::render::dvr::transfer::TransferFunction;
 use crate::render::dvr::DvrOptions;
@@ -32,17 +32,17 @@ pub fn render(
     o: &DvrOptions,
     shading: Shading,
     normals: Normals,
-) -> Result<(Frame, PtStats), GpuError> {
+) -> Result<(Frame, PtStats), RenderError> {
     if Grid::of(&vol.lattice).is_none() {
-        return Err(RenderError::PtLattice { lattice: vol.lattice.name.clone() }.into_gpu());
+        return Err(RenderError::PtLattice { lattice: vol.lattice.name.clone() });
     }
     if o.perspective {
-        return Err(RenderError::PtPerspective.into_gpu());
+        return Err(RenderError::PtPerspective);
     }
     let options = PtOptions { step: o.step, shading, normals };
-    let mut renderer = PtRenderer::new(gpu, d, vol, tf, options).map_err(RenderError::into_gpu)?;
+    let mut renderer = PtRenderer::new(gpu, d, vol, tf, options)?;
     let camera = Camera { azimuth: o.azimuth, elevation: o.elevation, perspective: false };
-    let frame = renderer.timed_frames(o.width, o.height, &camera, o.frames).map_err(RenderError::into_gpu)?;
+    let frame = renderer.timed_frames(o.width, o.height, &camera, o.frames)?;
     Ok((frame, PtStats { drawn: renderer.drawn(), total: renderer.total(), order_ms: renderer.order_ms() }))
 }
 

@@ -19,7 +19,7 @@
 //! samples) over the block and [`REACH`] cells around it
 //! ([`crate::render::dvr::widen_bounds`]), which keeps empty-space skipping exact.
 
-use crate::gpu::{Gpu, GpuError};
+use crate::gpu::Gpu;
 use crate::references::MATTAUSCH_BILINEAR;
 use crate::render::dvr::caster::look_of;
 use crate::render::dvr::transfer::TransferFunction;
@@ -99,15 +99,15 @@ pub fn choice_line(scheme: Scheme, view: [f64; 3], axis: usize) -> String {
 }
 
 /// `bcc_linear`, whose module the schemes are written on.
-pub fn base() -> Result<Derivation, GpuError> {
-    let f = boxforge::spec::catalog::get("bcc_linear").map_err(|e| GpuError::Runtime(e.to_string()))?;
-    Derivation::new(&f).map_err(|e| GpuError::Runtime(e.to_string()))
+pub fn base() -> Result<Derivation, RenderError> {
+    let f = boxforge::spec::catalog::get("bcc_linear")?;
+    Ok(Derivation::new(&f)?)
 }
 
 /// The whole DVR module of `scheme` on plane stack `axis`: `base`'s emitted
 /// module (embedded layout), the hand-written reference, the adapter, the
 /// DVR template.
-pub fn dvr_source(base: &Derivation, scheme: Scheme, axis: usize) -> Result<String, GpuError> {
+pub fn dvr_source(base: &Derivation, scheme: Scheme, axis: usize) -> Result<String, RenderError> {
     let p = scheme.prefix();
     let f = scheme.name();
     let adapter = format!(
@@ -143,13 +143,9 @@ pub fn scene<'a>(
     scheme: Scheme,
     axis: usize,
     block: i32,
-) -> Result<DvrScene<'a>, GpuError> {
+) -> Result<DvrScene<'a>, RenderError> {
     if vol.lattice != base.filter.lattice {
-        return Err(GpuError::Runtime(format!(
-            "{} reads BCC samples; the volume is on the {} lattice",
-            scheme.name(),
-            vol.lattice.name
-        )));
+        return Err(RenderError::SchemeLattice { scheme: scheme.name(), lattice: vol.lattice.name.clone() });
     }
     let source = dvr_source(base, scheme, axis)?;
     let name = scheme.prefix();
@@ -166,13 +162,12 @@ pub fn render(
     scheme: Scheme,
     tf: &TransferFunction,
     o: &DvrOptions,
-) -> Result<(Frame, String), GpuError> {
+) -> Result<(Frame, String), RenderError> {
     let view = crate::render::iso::view_direction(o.azimuth, o.elevation);
     let axis = stack_for_view(view);
     let volume = DeviceVolume::new(gpu, vol, Layout::Embedded)?;
-    let mut renderer =
-        SchemeRenderer::with_first_stack(gpu, &volume, scheme, tf, look_of(o), axis).map_err(RenderError::into_gpu)?;
-    let frame = renderer.timed_frames(o).map_err(RenderError::into_gpu)?;
+    let mut renderer = SchemeRenderer::with_first_stack(gpu, &volume, scheme, tf, look_of(o), axis)?;
+    let frame = renderer.timed_frames(o)?;
     Ok((frame, choice_line(scheme, view, axis)))
 }
 

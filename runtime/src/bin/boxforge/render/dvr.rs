@@ -2,7 +2,7 @@
 
 use boxforge::derive::Derivation;
 use boxforge::emit::Layout;
-use boxforge_runtime::gpu::{Gpu, GpuError};
+use boxforge_runtime::gpu::Gpu;
 use boxforge_runtime::render::dvr::transfer::TransferFunction;
 use boxforge_runtime::render::dvr::DvrOptions;
 use boxforge_runtime::render::iso::Frame;
@@ -50,7 +50,7 @@ pub fn frame(
     o: &DvrOptions,
     how: How,
 ) -> Result<Frame, String> {
-    let text = |e: GpuError| e.to_string();
+    let text = |e: boxforge_runtime::render::RenderError| e.to_string();
     match how {
         How::Scheme(s) => boxforge_runtime::render::schemes::render(gpu, vol, s, tf, o)
             .map(|(f, choice)| {
