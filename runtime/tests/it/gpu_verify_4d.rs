@@ -69,7 +69,7 @@ fn bricked_4d_volumes_are_refused_with_the_fix() {
     let vol = random_volume4(&d, 1);
     for layout in [Layout::Bricked, Layout::BrickedPacked] {
         let e = DeviceVolume4::new(gpu, &vol, layout).err().expect("refused").to_string();
-        assert!(e.contains("--layout embedded or packed") && !e.contains('\n'), "{e}");
+        assert!(e.contains("the embedded or packed layout") && !e.contains('\n'), "{e}");
         let e = verify(gpu, &d, layout, Variant::Fast, 10, 1).unwrap_err().to_string();
         assert!(e.contains("storage buffer") && !e.contains('\n'), "{e}");
     }
