@@ -68,3 +68,18 @@ pub fn from_cartesian(vol: &Volume, lattice: &Lattice, conversion: Conversion) -
     let scale = (vol.dims[0] as f64 - 1.0) / (dims[0] as f64 - 1.0);
     LatticeVolume::resample(lattice, vol, dims, scale)
 }
+
+/// Level, channel and time point `s` of the OME-Zarr image at `path`, on
+/// `lattice` (the level read whole: for the in-memory renderers).
+#[cfg(feature = "zarr")]
+pub fn load_zarr(
+    path: &Path,
+    s: crate::volume::zarr::Selection,
+    lattice: &Lattice,
+    conversion: Conversion,
+) -> Result<LatticeVolume, VolumeError> {
+    use crate::volume::zarr::{OmeZarr, ZarrVolume};
+    let image = OmeZarr::open(path)?;
+    let vol = ZarrVolume::new(&image, s, lattice)?.to_volume()?;
+    from_cartesian(&vol, lattice, conversion)
+}

@@ -14,6 +14,10 @@ pub enum VolumeError {
     /// The volume is past one of the device's limits (the message names it).
     #[error(transparent)]
     Limit(#[from] crate::limits::LimitError),
+    /// An OME-Zarr store that cannot be read or written.
+    #[cfg(feature = "zarr")]
+    #[error(transparent)]
+    Zarr(#[from] super::zarr::ZarrError),
     /// Hardware-filtered (linear) fetches asked of a bricked volume.
     #[error("linear fetches are not offered on the bricked layouts: use exact fetches or the packed layout")]
     LinearBricked,

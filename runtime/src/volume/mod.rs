@@ -41,6 +41,8 @@ mod stream;
 mod synthetic;
 #[cfg(test)]
 mod testutil;
+#[cfg(feature = "zarr")]
+pub mod zarr;
 
 pub use bricks::{slot_grid, BrickShape, BrickedVolume};
 pub use device::{DeviceVolume, VolumeOptions, DEFAULT_HALO};

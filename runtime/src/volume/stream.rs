@@ -264,6 +264,17 @@ impl MappedVolume {
     }
 
     /// Whether this volume maps a cache file written by an earlier open (a
+    /// The stored sample type's name ("uint8", "int16", "float32", ...).
+    pub fn stored_type(&self) -> &'static str {
+        self.ty.name()
+    }
+
+    /// Whether NIfTI scaling (`scl_slope`, `scl_inter`) maps the stored
+    /// values (then the samples are not the stored integers).
+    pub fn scaled(&self) -> bool {
+        self.scale.is_some()
+    }
+
     /// `.nii.gz` not decompressed this time).
     pub fn from_cache(&self) -> bool {
         self.from_cache

@@ -5,6 +5,7 @@
 mod common;
 mod bench;
 mod choices;
+mod convert;
 mod demo;
 mod generate;
 mod inspect;
@@ -53,6 +54,8 @@ enum Command {
     /// the catalog's filters in WebGPU with the same shaders as `render`.
     /// With --serve, serve it on 127.0.0.1 and print the URL.
     Web(web::WebArgs),
+    /// Write a volume (NIfTI, raw, OME-Zarr, ml:N) as an OME-Zarr 0.5 pyramid, streaming.
+    Convert(convert::ConvertArgs),
     /// List the built-in catalog.
     List,
 }
@@ -118,6 +121,7 @@ fn run(cli: Cli) -> Result<(), Failure> {
         }
         Command::Bench(a) => bench::run(a),
         Command::Web(a) => web::run(a),
+        Command::Convert(a) => convert::run(a),
         Command::List => list::run(),
     }
 }

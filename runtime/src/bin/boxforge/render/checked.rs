@@ -42,6 +42,8 @@ pub struct Source {
     pub raw: Option<String>,
     /// Resample a Cartesian volume on the lattice (else its lattice subset).
     pub resample: bool,
+    /// Some for an OME-Zarr store: the level, channel and time point to read.
+    pub zarr: Option<boxforge_runtime::volume::zarr::Selection>,
 }
 
 /// What a 3D render draws.
@@ -144,8 +146,39 @@ fn frame(a: &RenderArgs) -> Result<Frame, Failure> {
     })
 }
 
-fn source(a: &RenderArgs) -> Source {
-    Source { volume: a.volume.clone(), raw: a.raw.clone(), resample: a.resample }
+/// Where the samples come from; `--lod`, `--channel` (and `--time` with a
+/// 3D filter) only for an OME-Zarr store.
+fn source(a: &RenderArgs, three_d: bool) -> Result<Source, Failure> {
+    use boxforge_runtime::volume::zarr::{is_store, Selection};
+    let store = is_store(std::path::Path::new(&a.volume));
+    let zarr = if store {
+        if a.raw.is_some() {
+            return Err(Failure(format!(
+                "--raw reads headerless files; {} is an OME-Zarr store: drop --raw",
+                a.volume
+            )));
+        }
+        let time =
+            match a.time.filter(|_| three_d) {
+                None => 0,
+                Some(t) if t >= 0.0 && t.fract() == 0.0 => t as usize,
+                Some(t) => return Err(Failure(format!(
+                    "--time {t}: with a 3D filter, --time picks a time point of the store: give a whole number from 0"
+                ))),
+            };
+        Some(Selection { level: a.lod.unwrap_or(0), channel: a.channel.unwrap_or(0), time })
+    } else {
+        for (flag, given) in [("--lod", a.lod.is_some()), ("--channel", a.channel.is_some())] {
+            if given {
+                return Err(Failure(format!(
+                    "{flag} picks from an OME-Zarr store; {} is not one: drop {flag}",
+                    a.volume
+                )));
+            }
+        }
+        None
+    };
+    Ok(Source { volume: a.volume.clone(), raw: a.raw.clone(), resample: a.resample, zarr })
 }
 
 /// The shading `--shade`, `--curvature-radius` and `--contour-thickness` give.
@@ -154,7 +187,8 @@ fn shade(a: &RenderArgs) -> Shade {
 }
 
 fn three(a: RenderArgs, scheme: Option<Scheme>, resolved: boxforge::Result<Filter>) -> Result<ThreeRequest, Failure> {
-    if a.time.is_some() || a.frames.is_some() {
+    let zarr_time = a.time.is_some() && boxforge_runtime::volume::zarr::is_store(std::path::Path::new(&a.volume));
+    if (a.time.is_some() && !zarr_time) || a.frames.is_some() {
         return Err(Failure(format!(
             "--time and --frames draw time series with a 4D filter; {} is not one (see boxforge list: d4star8, z4_cubic, ...)",
             a.filter
@@ -256,7 +290,7 @@ fn three(a: RenderArgs, scheme: Option<Scheme>, resolved: boxforge::Result<Filte
         }),
     };
     Ok(ThreeRequest {
-        source: source(&a),
+        source: source(&a, true)?,
         frame,
         filter: f,
         scheme,
@@ -314,5 +348,12 @@ fn four(a: RenderArgs, f: Filter) -> Result<FourRequest, Failure> {
         (None, Some(n)) => Times::Frames(n),
         (None, None) => Times::Middle,
     };
-    Ok(FourRequest { source: source(&a), frame, filter: f, layout, exact, tf, times })
+    let source = source(&a, false)?;
+    if source.zarr.is_some() {
+        return Err(Failure(format!(
+            "{}: 4D filters read time series from ml-drift:N,F, a 4D .nii or raw frames, not yet from an OME-Zarr store; draw one time point with a 3D filter and --time N",
+            a.volume
+        )));
+    }
+    Ok(FourRequest { source, frame, filter: f, layout, exact, tf, times })
 }

@@ -60,8 +60,11 @@ enum Drawn<'a> {
 fn in_core(r: &ThreeRequest, d: &Derivation, tf: Option<TransferFunction>) -> Result<(), Failure> {
     let (f, lat) = (&r.frame, &r.filter.lattice);
     let conversion = if r.source.resample { Conversion::Resample } else { Conversion::Subset };
-    let vol =
-        scene::load(&r.source.volume, r.source.raw.as_deref(), lat, conversion).map_err(|e| Failure(e.to_string()))?;
+    let vol = match r.source.zarr {
+        Some(s) => scene::load_zarr(std::path::Path::new(&r.source.volume), s, lat, conversion),
+        None => scene::load(&r.source.volume, r.source.raw.as_deref(), lat, conversion),
+    }
+    .map_err(|e| Failure(e.to_string()))?;
     let (lo, hi) = vol.data.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
     let drawn = match (&r.look, tf) {
         (Look::Dvr(look), tf) => Drawn::Dvr(look, tf.unwrap_or_else(|| default_ramp(lo, hi))),

@@ -55,7 +55,8 @@ pub struct RenderArgs {
     peel: bool,
     #[arg(long)]
     filter: String,
-    /// `ml:N` (Marschner-Lobb, about N^3 samples), a .nii/.nii.gz file, or a raw file with --raw;
+    /// `ml:N` (Marschner-Lobb, about N^3 samples), a .nii/.nii.gz file, a raw file with --raw, or
+    /// an OME-Zarr image folder (0.4 or 0.5; with --lod, --channel and, for a t axis, --time N);
     /// with a 4D filter a time series: `ml-drift:N,F` (the drifting Marschner-Lobb signal, N^3
     /// samples in F frames), a 4D .nii/.nii.gz, or a folder of numbered raw frames with --raw.
     #[arg(long)]
@@ -63,6 +64,12 @@ pub struct RenderArgs {
     /// Raw volume format: nx,ny,nz,type (type u8, u16 or f32).
     #[arg(long)]
     raw: Option<String>,
+    /// OME-Zarr volumes: the channel to draw (default 0).
+    #[arg(long)]
+    channel: Option<usize>,
+    /// OME-Zarr volumes: the pyramid level to draw (0, the default: the finest).
+    #[arg(long)]
+    lod: Option<usize>,
     /// Data lattice (default: the filter's).
     #[arg(long)]
     lattice: Option<String>,
@@ -144,7 +151,8 @@ pub struct RenderArgs {
     #[arg(long)]
     adapter: Option<String>,
     /// 4D filters: the time to draw, in frames of the series (any real in
-    /// 0..frames-1, not only the sampled ones; default: the middle).
+    /// 0..frames-1, not only the sampled ones; default: the middle). With a 3D filter and an
+    /// OME-Zarr volume with a t axis: the time point to draw (default 0).
     #[arg(long, allow_negative_numbers = true)]
     time: Option<f32>,
     /// 4D filters: an animation of N frames over the whole series, written

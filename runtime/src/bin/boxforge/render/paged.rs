@@ -34,7 +34,7 @@ pub fn run(r: &ThreeRequest, p: &PagedRequest, d: &Derivation, tf: Option<Transf
         frames: 0,
         ..RenderOptions::default()
     };
-    let source = open_source(&r.source.volume, r.source.raw.as_deref(), &r.filter.lattice)?;
+    let source = open_source(&r.source, &r.filter.lattice)?;
     let what = match &r.look {
         Look::Iso(_) => Paged::Iso(camera),
         Look::Dvr(look) => {
@@ -59,13 +59,20 @@ pub fn run(r: &ThreeRequest, p: &PagedRequest, d: &Derivation, tf: Option<Transf
 }
 
 /// The samples `--volume` names, for out-of-core rendering: `ml:N` built in
-/// memory, a file mapped and read brick by brick (a `.nii.gz` decompressed
-/// once into the cache folder, with progress).
+/// memory, an OME-Zarr level read chunk by chunk, a file mapped and read
+/// brick by brick (a `.nii.gz` decompressed once into the cache folder,
+/// with progress).
 fn open_source(
-    volume: &str,
-    raw: Option<&str>,
+    source: &super::checked::Source,
     lattice: &boxforge::spec::lattice::Lattice,
 ) -> Result<Box<dyn BrickSource>, Failure> {
+    let (volume, raw) = (source.volume.as_str(), source.raw.as_deref());
+    if let Some(s) = source.zarr {
+        use boxforge_runtime::volume::zarr::{OmeZarr, ZarrVolume};
+        let fail = |e: &dyn std::fmt::Display| Failure(e.to_string());
+        let image = OmeZarr::open(std::path::Path::new(volume)).map_err(|e| fail(&e))?;
+        return Ok(Box::new(ZarrVolume::new(&image, s, lattice).map_err(|e| fail(&e))?));
+    }
     if volume.starts_with("ml:") {
         let v = boxforge_runtime::scene::load(volume, None, lattice, boxforge_runtime::scene::Conversion::Subset)
             .map_err(|e| Failure(e.to_string()))?;

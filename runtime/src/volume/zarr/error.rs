@@ -1,0 +1,62 @@
+//! What can go wrong with an OME-Zarr store; each message names the store,
+//! the problem and what to do.
+
+use std::path::PathBuf;
+
+/// An OME-Zarr store that cannot be read or written.
+#[derive(Debug, thiserror::Error)]
+pub enum ZarrError {
+    /// The path is not a Zarr group (no `zarr.json` or `.zgroup`).
+    #[error("cannot open {path} as a Zarr group: {reason} (give the folder of an OME-Zarr image, the one holding zarr.json or .zattrs)")]
+    Open { path: PathBuf, reason: String },
+    /// A Zarr group without OME `multiscales` metadata.
+    #[error("{path} is a Zarr group without OME-Zarr multiscales metadata: give the folder of an OME-Zarr image (0.4 or 0.5), not of a plate, a label group or a bare array")]
+    NotOme { path: PathBuf },
+    /// OME metadata that does not parse or does not describe a volume.
+    #[error("{path}: bad OME-Zarr metadata: {reason}; fix the store's multiscales metadata (e.g. validate it with ome-zarr-models)")]
+    Metadata { path: PathBuf, reason: String },
+    /// Axes that are not (t?, c?, z, y, x).
+    #[error("{path} has axes {axes:?}: boxforge reads images with three space axes last and at most one time and one channel axis before them, e.g. [t, c, z, y, x]")]
+    Axes { path: PathBuf, axes: Vec<String> },
+    /// A coarser level with a finer scale than the level before it.
+    #[error("{path}: level '{coarser}' has scale {coarser_scale:?} (z, y, x), finer than level '{finer}' before it ({finer_scale:?}): list the levels finest first, each as coarse as the one before or coarser")]
+    LevelOrder { path: PathBuf, finer: String, coarser: String, finer_scale: [f64; 3], coarser_scale: [f64; 3] },
+    /// A level whose shape does not match its scale against level 0.
+    #[error("{path}: level '{level}' has {shape:?} voxels (z, y, x) at scale {scale:?}, but level 0's {shape0:?} voxels at {scale0:?} call for about {expected:?}: the levels' shapes and scales are inconsistent; rewrite the pyramid (e.g. with boxforge convert)")]
+    LevelShape {
+        path: PathBuf,
+        level: String,
+        shape: [u64; 3],
+        scale: [f64; 3],
+        shape0: [u64; 3],
+        scale0: [f64; 3],
+        expected: [f64; 3],
+    },
+    /// A level's array could not be opened.
+    #[error("{path}: cannot open level '{level}' as a Zarr array: {reason} (check that the store is complete and was written by a Zarr v2 or v3 writer)")]
+    Array { path: PathBuf, level: String, reason: String },
+    /// A level's array rank differs from the axes'.
+    #[error("{path}: level '{level}' has {rank} dimensions but the image has {axes} axes: rewrite the store so every level has one dimension per axis")]
+    Rank { path: PathBuf, level: String, rank: usize, axes: usize },
+    /// A sample type boxforge does not read.
+    #[error("{path}: level '{level}' stores {data_type} samples: boxforge reads uint8, uint16, int16 and float32; convert the store to one of those")]
+    DataType { path: PathBuf, level: String, data_type: String },
+    /// A level, channel or time point past the store's.
+    #[error("{path} has {count} {what} (0 to {}), so there is no {index}: pick one of those", count.saturating_sub(1))]
+    Index { path: PathBuf, what: &'static str, index: usize, count: usize },
+    /// Chunks that could not be read or decoded (a corrupt or truncated chunk, a store error).
+    #[error("{path}: reading level '{level}' failed: {reason} (a chunk may be corrupt or truncated; rewrite or re-download the store)")]
+    Read { path: PathBuf, level: String, reason: String },
+    /// A non-finite sample at a lattice point.
+    #[error("{path}: level '{level}' has a NaN or infinite sample at voxel {voxel:?} (x, y, z): boxforge needs finite samples; replace them in the store")]
+    NonFinite { path: PathBuf, level: String, voxel: [usize; 3] },
+    /// Creating or writing the output store failed.
+    #[error("cannot write {path}: {reason} (check that its folder is writable and the disk has room)")]
+    Write { path: PathBuf, reason: String },
+    /// The output exists and is not an empty folder.
+    #[error("{path} exists: remove it first or write to a new path (boxforge does not overwrite a store)")]
+    Exists { path: PathBuf },
+    /// A bad pyramid option.
+    #[error("pyramid option {option} = {value}: {need}")]
+    Option { option: &'static str, value: u64, need: &'static str },
+}

@@ -1,0 +1,192 @@
+//! An OME-Zarr image opened from a folder: its multiscales metadata and
+//! each level's array, checked against each other once at open (so a
+//! renderer never meets a level whose shape contradicts its scale).
+
+use super::meta::{AxisKind, Multiscale};
+use super::{ZarrError, ZarrType};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use zarrs::array::Array;
+use zarrs::storage::ReadableStorageTraits;
+
+/// The storage the reader works on (a folder today; any zarrs store fits).
+pub(super) type Storage = dyn ReadableStorageTraits;
+
+/// Whether `path` names an OME-Zarr store rather than a volume file: a
+/// folder holding `zarr.json` (Zarr v3) or `.zattrs`/`.zgroup` (Zarr v2),
+/// or any path ending in `.zarr`.
+pub fn is_store(path: &Path) -> bool {
+    let named = path.to_str().map(|s| s.trim_end_matches('/').to_ascii_lowercase().ends_with(".zarr")).unwrap_or(false);
+    named || ["zarr.json", ".zattrs", ".zgroup"].iter().any(|f| path.join(f).is_file())
+}
+
+/// One resolution level: its array and its shape.
+pub struct ZarrLevel {
+    pub(super) array: Arc<Array<Storage>>,
+    /// The array's path inside the store.
+    pub path: String,
+    /// Voxels along (x, y, z).
+    pub dims: [usize; 3],
+    /// Physical voxel size along (x, y, z).
+    pub spacing: [f64; 3],
+    /// Stored sample type.
+    pub ty: ZarrType,
+}
+
+/// Which level, channel and time point of an image to read.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Selection {
+    /// Resolution level (0: finest).
+    pub level: usize,
+    /// Channel index (0 when the image has no channel axis).
+    pub channel: usize,
+    /// Time point (0 when the image has no time axis).
+    pub time: usize,
+}
+
+/// An OME-Zarr image: metadata and levels, opened and checked.
+pub struct OmeZarr {
+    path: PathBuf,
+    meta: Multiscale,
+    /// Each array axis's length at level 0.
+    shape0: Vec<u64>,
+    levels: Vec<ZarrLevel>,
+}
+
+impl OmeZarr {
+    /// Opens the OME-Zarr image in the folder `path` (Zarr v2 or v3).
+    pub fn open(path: &Path) -> Result<OmeZarr, ZarrError> {
+        let store = zarrs::filesystem::FilesystemStore::new(path)
+            .map_err(|e| ZarrError::Open { path: path.to_path_buf(), reason: e.to_string() })?;
+        if !path.is_dir() {
+            return Err(ZarrError::Open { path: path.to_path_buf(), reason: "no such folder".into() });
+        }
+        let storage: Arc<Storage> = Arc::new(store);
+        Self::open_storage(path, storage)
+    }
+
+    /// Opens an image from any zarrs store (`path` names it in messages).
+    pub(super) fn open_storage(path: &Path, storage: Arc<Storage>) -> Result<OmeZarr, ZarrError> {
+        let group = zarrs::group::Group::open(storage.clone(), "/")
+            .map_err(|e| ZarrError::Open { path: path.to_path_buf(), reason: e.to_string() })?;
+        let meta = Multiscale::from_attributes(path, group.attributes())?;
+        let rank = meta.axes.len();
+        let mut levels = Vec::with_capacity(meta.levels.len());
+        let mut shape0 = Vec::new();
+        for (i, level) in meta.levels.iter().enumerate() {
+            let key = format!("/{}", level.path.trim_matches('/'));
+            let array = Array::open(storage.clone(), &key).map_err(|e| ZarrError::Array {
+                path: path.to_path_buf(),
+                level: level.path.clone(),
+                reason: e.to_string(),
+            })?;
+            let shape = array.shape().to_vec();
+            if shape.len() != rank {
+                return Err(ZarrError::Rank {
+                    path: path.to_path_buf(),
+                    level: level.path.clone(),
+                    rank: shape.len(),
+                    axes: rank,
+                });
+            }
+            let ty = ZarrType::of(array.data_type()).ok_or_else(|| ZarrError::DataType {
+                path: path.to_path_buf(),
+                level: level.path.clone(),
+                data_type: array.data_type().to_string(),
+            })?;
+            let zyx = [shape[rank - 3], shape[rank - 2], shape[rank - 1]];
+            if i == 0 {
+                shape0 = shape.clone();
+            } else {
+                check_level_shape(path, &meta, i, zyx, &shape0)?;
+            }
+            let s = level.scale_zyx;
+            levels.push(ZarrLevel {
+                array: Arc::new(array),
+                path: level.path.clone(),
+                dims: [zyx[2] as usize, zyx[1] as usize, zyx[0] as usize],
+                spacing: [s[2], s[1], s[0]],
+                ty,
+            });
+        }
+        Ok(OmeZarr { path: path.to_path_buf(), meta, shape0, levels })
+    }
+
+    /// The store's folder.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// The parsed metadata.
+    pub fn metadata(&self) -> &Multiscale {
+        &self.meta
+    }
+
+    /// The levels, finest first.
+    pub fn levels(&self) -> &[ZarrLevel] {
+        &self.levels
+    }
+
+    /// Channels (1 without a channel axis).
+    pub fn channels(&self) -> usize {
+        self.count_of(AxisKind::Channel)
+    }
+
+    /// Time points (1 without a time axis).
+    pub fn times(&self) -> usize {
+        self.count_of(AxisKind::Time)
+    }
+
+    fn count_of(&self, kind: AxisKind) -> usize {
+        self.meta.axes.iter().position(|k| *k == kind).map_or(1, |i| self.shape0[i] as usize)
+    }
+
+    /// Checks a selection against the store's levels, channels and times.
+    pub fn check(&self, s: Selection) -> Result<(), ZarrError> {
+        let index = |what, index, count| {
+            if index < count {
+                Ok(())
+            } else {
+                Err(ZarrError::Index { path: self.path.clone(), what, index, count })
+            }
+        };
+        index("levels", s.level, self.levels.len())?;
+        index("channels", s.channel, self.channels())?;
+        index("time points", s.time, self.times())
+    }
+
+    /// The array indices of the non-space axes for a selection, in axis order.
+    pub(super) fn prefix(&self, s: Selection) -> Vec<u64> {
+        self.meta
+            .axes
+            .iter()
+            .filter_map(|k| match k {
+                AxisKind::Channel => Some(s.channel as u64),
+                AxisKind::Time => Some(s.time as u64),
+                AxisKind::Space => None,
+            })
+            .collect()
+    }
+}
+
+/// A coarser level's (z, y, x) shape must be level 0's divided by the ratio
+/// of their scales, within one voxel of the coarse level (writers round
+/// either way: `ceil(n / 2)` by subsampling, `floor(n / 2)` by averaging).
+fn check_level_shape(path: &Path, meta: &Multiscale, i: usize, zyx: [u64; 3], shape0: &[u64]) -> Result<(), ZarrError> {
+    let r = shape0.len();
+    let zyx0 = [shape0[r - 3], shape0[r - 2], shape0[r - 1]];
+    let (s0, s) = (meta.levels[0].scale_zyx, meta.levels[i].scale_zyx);
+    let expected: [f64; 3] = std::array::from_fn(|a| zyx0[a] as f64 * s0[a] / s[a]);
+    if (0..3).any(|a| (zyx[a] as f64 - expected[a]).abs() > 1.0 + 1e-6) {
+        return Err(ZarrError::LevelShape {
+            path: path.to_path_buf(),
+            level: meta.levels[i].path.clone(),
+            shape: zyx,
+            scale: s,
+            shape0: zyx0,
+            scale0: s0,
+            expected,
+        });
+    }
+    Ok(())
+}
