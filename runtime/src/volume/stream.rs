@@ -263,18 +263,19 @@ impl MappedVolume {
         }
     }
 
-    /// Whether this volume maps a cache file written by an earlier open (a
     /// The stored sample type's name ("uint8", "int16", "float32", ...).
     pub fn stored_type(&self) -> &'static str {
         self.ty.name()
     }
 
-    /// Whether NIfTI scaling (`scl_slope`, `scl_inter`) maps the stored
-    /// values (then the samples are not the stored integers).
+    /// Whether NIfTI scaling (`scl_slope`, `scl_inter`) changes the stored
+    /// values (then the samples are not the stored integers); the identity
+    /// (1, 0) does not.
     pub fn scaled(&self) -> bool {
-        self.scale.is_some()
+        self.scale.is_some_and(|(slope, inter)| slope != 1.0 || inter != 0.0)
     }
 
+    /// Whether this volume maps a cache file written by an earlier open (a
     /// `.nii.gz` not decompressed this time).
     pub fn from_cache(&self) -> bool {
         self.from_cache

@@ -301,7 +301,7 @@ fn cases(dir: &Path) -> Vec<(Vec<String>, &'static str)> {
     ]
 }
 
-fn run_bounded(args: &[String]) -> std::process::Output {
+pub(crate) fn run_bounded(args: &[String]) -> std::process::Output {
     let mut child = Command::new(env!("CARGO_BIN_EXE_boxforge"))
         .args(args)
         // No device may be needed: point Vulkan at nothing.

@@ -29,3 +29,4 @@ mod render;
 mod render_4d;
 mod targets_run;
 mod web;
+mod zarr;

@@ -50,6 +50,12 @@ pub enum ZarrError {
     /// A non-finite sample at a lattice point.
     #[error("{path}: level '{level}' has a NaN or infinite sample at voxel {voxel:?} (x, y, z): boxforge needs finite samples; replace them in the store")]
     NonFinite { path: PathBuf, level: String, voxel: [usize; 3] },
+    /// A level whose declared shape is past what any renderer addresses.
+    #[error("{path}: level '{level}' declares {shape:?} samples (z, y, x), past the {} samples boxforge addresses in one volume: check the store's array metadata (shape)", super::store::MAX_LEVEL_SAMPLES)]
+    ShapePastLimit { path: PathBuf, level: String, shape: [u64; 3] },
+    /// A level too large to read whole into memory.
+    #[error("{path}: level '{level}' has {}x{}x{} samples, too many to read into memory at once: read a coarser level of the pyramid, or render this one out of core within a GPU memory budget", dims[0], dims[1], dims[2])]
+    LevelTooLarge { path: PathBuf, level: String, dims: [usize; 3] },
     /// Creating or writing the output store failed.
     #[error("cannot write {path}: {reason} (check that its folder is writable and the disk has room)")]
     Write { path: PathBuf, reason: String },

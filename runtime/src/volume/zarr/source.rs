@@ -86,8 +86,10 @@ impl ZarrVolume {
     /// The whole level as a Cartesian volume (the stored values, every
     /// voxel): for the in-memory renderers. Checks the sample count first.
     pub fn to_volume(&self) -> Result<Volume, VolumeError> {
-        let what = format!("{} level '{}'", self.path.display(), self.level_path);
-        crate::limits::check_samples(self.dims, &what)?;
+        if crate::limits::check_samples(self.dims, "").is_err() {
+            let (path, level) = (self.path.clone(), self.level_path.clone());
+            return Err(ZarrError::LevelTooLarge { path, level, dims: self.dims }.into());
+        }
         let data = self.read_clamped([0, 0, 0], self.dims.map(|n| n - 1), false)?;
         Volume::new(self.dims, data)
     }

@@ -20,6 +20,11 @@ pub fn is_store(path: &Path) -> bool {
     named || ["zarr.json", ".zattrs", ".zgroup"].iter().any(|f| path.join(f).is_file())
 }
 
+/// The most samples a level may declare (2^40, a 10240^3 volume): past
+/// it no renderer's page table or bounds pass is sane, and a shape that
+/// large in a store is far more likely a broken header than data.
+pub const MAX_LEVEL_SAMPLES: u64 = 1 << 40;
+
 /// One resolution level: its array and its shape.
 pub struct ZarrLevel {
     pub(super) array: Arc<Array<Storage>>,
@@ -95,6 +100,14 @@ impl OmeZarr {
                 data_type: array.data_type().to_string(),
             })?;
             let zyx = [shape[rank - 3], shape[rank - 2], shape[rank - 1]];
+            let samples = zyx.iter().try_fold(1u64, |n, &e| n.checked_mul(e));
+            if samples.is_none_or(|n| n > MAX_LEVEL_SAMPLES) || zyx.contains(&0) {
+                return Err(ZarrError::ShapePastLimit {
+                    path: path.to_path_buf(),
+                    level: level.path.clone(),
+                    shape: zyx,
+                });
+            }
             if i == 0 {
                 shape0 = shape.clone();
             } else {

@@ -197,8 +197,10 @@ fn create_array(
     o: &PyramidOptions,
 ) -> Result<Array<FilesystemStore>, Box<dyn std::error::Error>> {
     let shape = vec![d[2] as u64, d[1] as u64, d[0] as u64];
-    let unit = o.shard.unwrap_or(o.chunk).min(d.iter().copied().max().unwrap_or(1)).max(1) as u64;
     let chunk = o.chunk as u64;
+    // A level smaller than a shard gets one shard of whole chunks.
+    let largest = d.iter().copied().max().unwrap_or(1) as u64;
+    let unit = o.shard.map_or(chunk, |s| (s as u64).min(largest.div_ceil(chunk) * chunk));
     let zstd: Arc<dyn zarrs::array::BytesToBytesCodecTraits> =
         Arc::new(zarrs::array::codec::ZstdCodec::new(o.zstd_level, false));
     let data_type = match o.ty {
@@ -215,7 +217,7 @@ fn create_array(
     };
     let mut b = if o.shard.is_some() {
         let mut b = ArrayBuilder::new(shape, vec![unit; 3], data_type, fill);
-        b.subchunk_shape(vec![chunk.min(unit); 3]);
+        b.subchunk_shape(vec![chunk; 3]);
         b
     } else {
         ArrayBuilder::new(shape, vec![chunk; 3], data_type, fill)

@@ -158,14 +158,15 @@ fn source(a: &RenderArgs, three_d: bool) -> Result<Source, Failure> {
                 a.volume
             )));
         }
-        let time =
-            match a.time.filter(|_| three_d) {
-                None => 0,
-                Some(t) if t >= 0.0 && t.fract() == 0.0 => t as usize,
-                Some(t) => return Err(Failure(format!(
+        let time = match a.time.filter(|_| three_d) {
+            None => 0,
+            Some(t) if t >= 0.0 && t.fract() == 0.0 => t as usize,
+            Some(t) => {
+                return Err(Failure(format!(
                     "--time {t}: with a 3D filter, --time picks a time point of the store: give a whole number from 0"
-                ))),
-            };
+                )))
+            }
+        };
         Some(Selection { level: a.lod.unwrap_or(0), channel: a.channel.unwrap_or(0), time })
     } else {
         for (flag, given) in [("--lod", a.lod.is_some()), ("--channel", a.channel.is_some())] {
