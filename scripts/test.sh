@@ -44,6 +44,8 @@ else
 fi
 # examples/embed is tested on its own below: in the workspace run the
 # runtime would get the CLI's features through feature unification.
+# The Python peers the OME-Zarr tests check against (ome-zarr-models, zarr), made once.
+phase "zarr peers (venv)" scripts/zarr-peers/ensure-venv.sh >/dev/null
 phase "tests (build)" cargo test --workspace --exclude boxforge-embed --locked --no-run
 phase tests scripts/run-tests.py --workspace --exclude boxforge-embed
 phase "embed (own package)" cargo test --locked -p boxforge-embed

@@ -33,7 +33,13 @@ boxforge_zarr_venv() {
     echo "Making the OME-Zarr check venv at $venv (pip install -r scripts/zarr-peers/requirements-check.txt)..." >&2
     mkdir -p "$(dirname "$venv")" || return 2
     log="$venv.pip.log"
-    if ! python3 -m venv "$venv" >"$log" 2>&1; then
+    if ! python3 -m venv "$venv" >"$log" 2>&1 && [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null; then
+        # Debian's python3 ships venv separately: install it, as root, and retry.
+        rm -rf "$venv"
+        echo "Installing python3-venv (apt-get)..." >&2
+        { apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq python3-venv; } >>"$log" 2>&1
+    fi
+    if [ ! -x "$py" ] && ! { rm -rf "$venv" && python3 -m venv "$venv" >>"$log" 2>&1; }; then
         echo "error: 'python3 -m venv' failed (see $log; on Debian/Ubuntu: sudo apt-get install -y python3-venv); to make it by hand: $by_hand" >&2
         return 2
     fi

@@ -14,10 +14,11 @@ pub enum VolumeError {
     /// The volume is past one of the device's limits (the message names it).
     #[error(transparent)]
     Limit(#[from] crate::limits::LimitError),
-    /// An OME-Zarr store that cannot be read or written.
+    /// An OME-Zarr store that cannot be read or written (boxed: its
+    /// variants carry whole shapes and scales).
     #[cfg(feature = "zarr")]
     #[error(transparent)]
-    Zarr(#[from] super::zarr::ZarrError),
+    Zarr(Box<super::zarr::ZarrError>),
     /// Hardware-filtered (linear) fetches asked of a bricked volume.
     #[error("linear fetches are not offered on the bricked layouts: use exact fetches or the packed layout")]
     LinearBricked,
@@ -150,6 +151,13 @@ pub enum VolumeError {
         "cannot write the decompressed volume cache {path}: {source} (free disk space there or choose another cache directory; it defaults to $XDG_CACHE_HOME/boxforge or ~/.cache/boxforge)"
     )]
     Cache { path: PathBuf, source: std::io::Error },
+}
+
+#[cfg(feature = "zarr")]
+impl From<super::zarr::ZarrError> for VolumeError {
+    fn from(e: super::zarr::ZarrError) -> VolumeError {
+        VolumeError::Zarr(Box::new(e))
+    }
 }
 
 /// The [`VolumeError::Io`] of a file that could not be read.

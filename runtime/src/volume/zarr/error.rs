@@ -19,19 +19,11 @@ pub enum ZarrError {
     #[error("{path} has axes {axes:?}: boxforge reads images with three space axes last and at most one time and one channel axis before them, e.g. [t, c, z, y, x]")]
     Axes { path: PathBuf, axes: Vec<String> },
     /// A coarser level with a finer scale than the level before it.
-    #[error("{path}: level '{coarser}' has scale {coarser_scale:?} (z, y, x), finer than level '{finer}' before it ({finer_scale:?}): list the levels finest first, each as coarse as the one before or coarser")]
-    LevelOrder { path: PathBuf, finer: String, coarser: String, finer_scale: [f64; 3], coarser_scale: [f64; 3] },
+    #[error("{path}: level '{coarser}' has scale {coarser_scale:?} (z, y, x), finer than the level before it ({finer_scale:?}): list the levels finest first, each as coarse as the one before or coarser")]
+    LevelOrder { path: PathBuf, coarser: String, finer_scale: [f64; 3], coarser_scale: [f64; 3] },
     /// A level whose shape does not match its scale against level 0.
-    #[error("{path}: level '{level}' has {shape:?} voxels (z, y, x) at scale {scale:?}, but level 0's {shape0:?} voxels at {scale0:?} call for about {expected:?}: the levels' shapes and scales are inconsistent; rewrite the pyramid (e.g. with boxforge convert)")]
-    LevelShape {
-        path: PathBuf,
-        level: String,
-        shape: [u64; 3],
-        scale: [f64; 3],
-        shape0: [u64; 3],
-        scale0: [f64; 3],
-        expected: [f64; 3],
-    },
+    #[error("{path}: level '{level}' has {shape:?} voxels (z, y, x), but level 0's shape and the two levels' scales call for about {expected:?}: the levels' shapes and scales are inconsistent; rewrite the pyramid (e.g. with boxforge convert)")]
+    LevelShape { path: PathBuf, level: String, shape: [u64; 3], expected: [f64; 3] },
     /// A level's array could not be opened.
     #[error("{path}: cannot open level '{level}' as a Zarr array: {reason} (check that the store is complete and was written by a Zarr v2 or v3 writer)")]
     Array { path: PathBuf, level: String, reason: String },

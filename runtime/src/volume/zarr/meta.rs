@@ -103,7 +103,6 @@ impl Multiscale {
             if (0..3).any(|i| b.scale_zyx[i] < a.scale_zyx[i] * (1.0 - 1e-6)) {
                 return Err(ZarrError::LevelOrder {
                     path: store.to_path_buf(),
-                    finer: a.path.clone(),
                     coarser: b.path.clone(),
                     finer_scale: a.scale_zyx,
                     coarser_scale: b.scale_zyx,

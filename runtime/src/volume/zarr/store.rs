@@ -195,9 +195,6 @@ fn check_level_shape(path: &Path, meta: &Multiscale, i: usize, zyx: [u64; 3], sh
             path: path.to_path_buf(),
             level: meta.levels[i].path.clone(),
             shape: zyx,
-            scale: s,
-            shape0: zyx0,
-            scale0: s0,
             expected,
         });
     }
