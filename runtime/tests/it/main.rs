@@ -30,3 +30,4 @@ mod render_4d;
 mod targets_run;
 mod web;
 mod zarr;
+mod zarr_http;

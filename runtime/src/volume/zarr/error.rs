@@ -54,6 +54,15 @@ pub enum ZarrError {
     /// The output exists and is not an empty folder.
     #[error("{path} exists: remove it first or write to a new path (boxforge does not overwrite a store)")]
     Exists { path: PathBuf },
+    /// A URL while the `http` feature is off.
+    #[error("{url}: this build of boxforge-runtime reads no URLs: build it with the '{feature}' feature, or copy the store to a folder")]
+    NotBuilt { url: String, feature: &'static str },
+    /// A sharded store on a server that ignores Range requests.
+    #[error("{url} is sharded, but its server ignores Range requests (it answers with whole files): serve it with a server that honours Range (nginx, Apache, a cloud bucket; not Python's http.server), or convert it unsharded")]
+    RangeIgnored { url: String },
+    /// An `https://` URL (no TLS client is built in).
+    #[error("{url}: boxforge reads stores over plain http:// only (no TLS client is built in): serve the store over http on a trusted network, or copy it to a folder")]
+    NoTls { url: String },
     /// A bad pyramid option.
     #[error("pyramid option {option} = {value}: {need}")]
     Option { option: &'static str, value: u64, need: &'static str },

@@ -7,15 +7,20 @@
 //! array and checks them against the metadata, `source.rs` reads one
 //! level, channel and time point box by box through a chunk cache
 //! ([`BrickSource`](super::BrickSource)), so a store larger than host memory
-//! is never read whole.
+//! is never read whole. With the `http` feature a store may be a URL
+//! (`http.rs`: chunks fetched on demand, Range requests for shards).
 
 mod error;
+#[cfg(feature = "http")]
+mod http;
 mod meta;
 mod source;
 mod store;
 mod write;
 
 pub use error::ZarrError;
+#[cfg(feature = "http")]
+pub use http::{HttpOptions, HttpStore};
 pub use meta::{AxisKind, LevelMeta, Multiscale};
 pub use source::ZarrVolume;
 pub use store::{is_store, OmeZarr, Selection, ZarrLevel};

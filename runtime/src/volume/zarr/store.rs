@@ -17,7 +17,12 @@ pub(super) type Storage = dyn ReadableStorageTraits;
 /// or any path ending in `.zarr`.
 pub fn is_store(path: &Path) -> bool {
     let named = path.to_str().map(|s| s.trim_end_matches('/').to_ascii_lowercase().ends_with(".zarr")).unwrap_or(false);
-    named || ["zarr.json", ".zattrs", ".zgroup"].iter().any(|f| path.join(f).is_file())
+    named || url_of(path).is_some() || ["zarr.json", ".zattrs", ".zgroup"].iter().any(|f| path.join(f).is_file())
+}
+
+/// The URL `path` spells, if it is one (`http://` or `https://`).
+fn url_of(path: &Path) -> Option<&str> {
+    path.to_str().filter(|s| s.starts_with("http://") || s.starts_with("https://"))
 }
 
 /// The most samples a level may declare (2^40, a 10240^3 volume): past
@@ -59,8 +64,12 @@ pub struct OmeZarr {
 }
 
 impl OmeZarr {
-    /// Opens the OME-Zarr image in the folder `path` (Zarr v2 or v3).
+    /// Opens the OME-Zarr image in the folder `path` (Zarr v2 or v3), or at
+    /// the URL it spells (`http://`, with the `http` feature).
     pub fn open(path: &Path) -> Result<OmeZarr, ZarrError> {
+        if let Some(url) = url_of(path) {
+            return Self::open_url(url);
+        }
         let store = zarrs::filesystem::FilesystemStore::new(path)
             .map_err(|e| ZarrError::Open { path: path.to_path_buf(), reason: e.to_string() })?;
         if !path.is_dir() {
@@ -68,6 +77,36 @@ impl OmeZarr {
         }
         let storage: Arc<Storage> = Arc::new(store);
         Self::open_storage(path, storage)
+    }
+
+    /// Opens the image at `url` over HTTP, chunks fetched on demand.
+    #[cfg(feature = "http")]
+    pub fn open_url(url: &str) -> Result<OmeZarr, ZarrError> {
+        if url.starts_with("https://") {
+            return Err(ZarrError::NoTls { url: url.to_string() });
+        }
+        let store = Arc::new(super::http::HttpStore::new(url, super::http::HttpOptions::default()));
+        let image = Self::open_storage(Path::new(url), store.clone())?;
+        let sharded = image
+            .levels
+            .iter()
+            .any(|l| serde_json::to_string(l.array.metadata()).is_ok_and(|m| m.contains("sharding_indexed")));
+        if sharded {
+            let key = zarrs::storage::StoreKey::new("zarr.json").expect("a valid key");
+            let honoured = store
+                .honours_range(&key)
+                .map_err(|e| ZarrError::Open { path: PathBuf::from(url), reason: e.to_string() })?;
+            if !honoured {
+                return Err(ZarrError::RangeIgnored { url: url.to_string() });
+            }
+        }
+        Ok(image)
+    }
+
+    /// Without the `http` feature a URL is refused.
+    #[cfg(not(feature = "http"))]
+    pub fn open_url(url: &str) -> Result<OmeZarr, ZarrError> {
+        Err(ZarrError::NotBuilt { url: url.to_string(), feature: "http" })
     }
 
     /// Opens an image from any zarrs store (`path` names it in messages).

@@ -56,7 +56,7 @@ pub struct RenderArgs {
     #[arg(long)]
     filter: String,
     /// `ml:N` (Marschner-Lobb, about N^3 samples), a .nii/.nii.gz file, a raw file with --raw, or
-    /// an OME-Zarr image folder (0.4 or 0.5; with --lod, --channel and, for a t axis, --time N);
+    /// an OME-Zarr image folder or http:// URL (0.4 or 0.5; with --lod, --channel and, for a t axis, --time N);
     /// with a 4D filter a time series: `ml-drift:N,F` (the drifting Marschner-Lobb signal, N^3
     /// samples in F frames), a 4D .nii/.nii.gz, or a folder of numbered raw frames with --raw.
     #[arg(long)]
