@@ -18,6 +18,7 @@ pub mod four;
 pub mod glsl_rivals;
 pub mod hessian;
 pub mod hit;
+pub mod levels;
 pub mod literature;
 pub mod perm;
 pub mod volumes;

@@ -123,3 +123,33 @@ fn four_d_bench_measures_rms_and_rates() {
     let wins = q.rms_prefiltered < coarse.rms_prefiltered;
     assert_eq!(v[0].contains("D4* wins"), wins, "{v:?}");
 }
+
+/// `bench --pyramid`'s measurement: level 0 is the same samples whatever
+/// the reduction (equal RMS), a coarser level loses detail (larger RMS),
+/// and no reduction's error is past 3x the lowest at its level.
+#[test]
+fn pyramid_bench_measures_every_level_and_reduction() {
+    use boxforge_runtime::bench::levels;
+    let d = boxforge::derive::Derivation::new(&boxforge::spec::catalog::get("cc_trilinear").unwrap()).unwrap();
+    let scratch = std::env::temp_dir().join(format!("boxforge-pyramid-bench-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&scratch);
+    std::fs::create_dir_all(&scratch).unwrap();
+    let r = levels::measure(&[d], 33, 3, 500, &scratch, &|_| {}).unwrap();
+    let _ = std::fs::remove_dir_all(&scratch);
+    assert_eq!(r.rows.len(), 3, "{r:?}");
+    let l0 = &r.rows[0].rms;
+    assert!(l0.iter().all(|v| *v == l0[0] && *v > 0.0 && v.is_finite()), "{l0:?}");
+    for row in &r.rows[1..] {
+        for (reduction, v) in levels::REDUCTIONS.iter().zip(&row.rms) {
+            assert!(*v > l0[0], "{reduction:?} level {}: {v} vs level 0's {}", row.level, l0[0]);
+            assert!(
+                *v < 3.0 * row.rms.iter().copied().fold(f64::INFINITY, f64::min),
+                "{reduction:?} level {}: {:?}",
+                row.level,
+                row.rms
+            );
+        }
+    }
+    assert_eq!((r.rows[1].edge, r.rows[2].edge), (17, 9));
+    assert!(levels::markdown(&r, "test").contains(levels::SECTION_START));
+}

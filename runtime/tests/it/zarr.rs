@@ -179,6 +179,7 @@ fn written_pyramids_hold_the_source_and_its_binomial_reduction() {
             chunk: 4,
             shard,
             levels: Some(3),
+            reduction: Reduction::Binomial,
             ty: ZarrType::F32,
             spacing: [0.5, 0.5, 1.5],
             ..Default::default()

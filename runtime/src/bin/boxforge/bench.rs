@@ -57,6 +57,11 @@ pub struct BenchArgs {
     /// --markdown, replaces only its section of the file.
     #[arg(long, conflicts_with_all = ["derive", "literature", "perm", "volumes", "hessian", "curvature"])]
     four_d: bool,
+    /// Measure pyramid levels for spline reconstruction instead (CPU, no
+    /// device): RMS of each level of Marschner-Lobb per reduction (subsample,
+    /// box, binomial) and filter; with --markdown, replaces only its section.
+    #[arg(long, conflicts_with_all = ["derive", "literature", "perm", "volumes", "hessian", "curvature", "four_d"])]
+    pyramid: bool,
     /// Edge of the generated out-of-core volume (default 1024; 64 with --smoke).
     #[arg(long, requires = "volumes")]
     large_edge: Option<usize>,
@@ -117,6 +122,8 @@ pub fn run(a: BenchArgs) -> Result<(), Failure> {
         four_d(&a)
     } else if a.curvature {
         curvature(&a)
+    } else if a.pyramid {
+        crate::bench_pyramid::run(&a.filters, a.smoke, a.markdown.as_deref(), a.json)
     } else if a.references_only {
         references_only(&a)
     } else {
@@ -524,6 +531,7 @@ fn main_report(a: BenchArgs) -> Result<(), Failure> {
                 bench::volumes::existing_section(&old),
                 bench::hessian::existing_section(&old),
                 bench::curvature::existing_section(&old),
+                bench::levels::existing_section(&old),
                 bench::four::existing_section(&old),
                 bench::markdown::gpu_record_section(&old),
             ];

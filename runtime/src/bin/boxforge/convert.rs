@@ -36,9 +36,10 @@ pub struct ConvertArgs {
     /// Pyramid levels; default: until the largest edge fits one chunk.
     #[arg(long)]
     levels: Option<usize>,
-    /// How coarser levels are made: binomial ((1,4,6,4,1)/16, vertex-aligned; for spline
-    /// reconstruction) or box (2x2x2 mean).
-    #[arg(long, value_enum, default_value = "binomial")]
+    /// How coarser levels are made: box (2x2x2 mean; the least loss among the low-passes, measured
+    /// by bench --pyramid), tent ((1,2,1)/4), binomial ((1,4,6,4,1)/16) or subsample (every second
+    /// sample, no low-pass: aliases).
+    #[arg(long, value_enum, default_value = "box")]
     reduction: ReductionArg,
     /// Stored sample type; default: the input's (float32 for scaled NIfTI and other types).
     #[arg(long, value_enum)]
@@ -50,6 +51,8 @@ pub struct ConvertArgs {
 pub enum ReductionArg {
     Binomial,
     Box,
+    Subsample,
+    Tent,
 }
 
 /// `--dtype`.
@@ -92,6 +95,8 @@ pub fn run(a: ConvertArgs) -> Result<(), Failure> {
         reduction: match a.reduction {
             ReductionArg::Binomial => Reduction::Binomial,
             ReductionArg::Box => Reduction::Box,
+            ReductionArg::Subsample => Reduction::Subsample,
+            ReductionArg::Tent => Reduction::Tent,
         },
         ty: a.dtype.map_or(input.ty, ZarrType::from),
         spacing: input.spacing,

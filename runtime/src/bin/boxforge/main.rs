@@ -4,6 +4,7 @@
 #[macro_use]
 mod common;
 mod bench;
+mod bench_pyramid;
 mod choices;
 mod convert;
 mod demo;

@@ -5,18 +5,24 @@
 //! only the unit's footprint (its box at twice the size plus the filter's
 //! reach). Host memory stays at a few write units, whatever the volume.
 //!
-//! **The reduction.** [`Reduction::Binomial`] (the default) low-passes
-//! with the binomial kernel (1, 4, 6, 4, 1)/16 along each axis and keeps
-//! every second sample, vertex-aligned: sample i of level k+1 sits on
-//! sample 2i of level k, so level k+1 has `ceil(n / 2)` samples and twice
-//! the scale, with no translation. The kernel is the cubic B-spline's
-//! two-scale smoothing step (the REDUCE of Burt and Adelson's pyramid with
-//! a = 3/8): it removes what the coarser lattice cannot represent before
-//! sampling, as spline reconstruction assumes, where plain subsampling
-//! aliases. [`Reduction::Box`] is the plain 2x2x2 average (cell-centred:
-//! `floor(n / 2)` samples, translated by half a coarse voxel), kept to
-//! measure against. Integer samples are rounded to the nearest value the
-//! type holds.
+//! **The reduction, chosen by measurement.** [`Reduction::Box`] (the
+//! default) is the 2x2x2 mean, cell-centred: level k+1 has `floor(n / 2)`
+//! samples, twice the scale and a translation of half a coarse voxel. Its
+//! rivals, all vertex-aligned (sample i of level k+1 on sample 2i of level
+//! k, `ceil(n / 2)` samples, no translation): [`Reduction::Subsample`]
+//! (every second sample, no low-pass), [`Reduction::Tent`] ((1, 2, 1)/4,
+//! the linear B-spline's two-scale step) and [`Reduction::Binomial`]
+//! ((1, 4, 6, 4, 1)/16, the cubic B-spline's, Burt and Adelson's REDUCE).
+//! `boxforge bench --pyramid` reconstructs every level of Marschner-Lobb
+//! with the trilinear and tricubic B-splines against the analytic function
+//! (docs/BENCHMARKS.md): while a level still resolves the signal,
+//! subsampling loses least (it keeps the full amplitude) and the stronger
+//! low-passes lose most (at the coarse Nyquist frequency the box keeps
+//! cos(pi/4) = 0.71 of the amplitude, the tent 0.5, the binomial 0.25);
+//! at the first level that no longer resolves it, subsampling aliases and
+//! the box is best. Among the reductions that low-pass, which a pyramid
+//! needs so its coarse levels do not alias, the box loses least at every
+//! level. Integer samples are rounded to the nearest value the type holds.
 
 use super::{ZarrError, ZarrType};
 use crate::volume::{BrickSource, VolumeError};
@@ -29,10 +35,15 @@ use zarrs::filesystem::FilesystemStore;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum Reduction {
     /// (1, 4, 6, 4, 1)/16 per axis, every second sample, vertex-aligned.
-    #[default]
     Binomial,
-    /// The mean of each 2x2x2 block, cell-centred.
+    /// The mean of each 2x2x2 block, cell-centred (the default: see the module's doc).
+    #[default]
     Box,
+    /// Every second sample, no low-pass (aliases; kept to measure against).
+    Subsample,
+    /// (1, 2, 1)/4 per axis (the linear B-spline's two-scale step), every
+    /// second sample, vertex-aligned.
+    Tent,
 }
 
 impl Reduction {
@@ -41,13 +52,15 @@ impl Reduction {
         match self {
             Reduction::Binomial => "binomial",
             Reduction::Box => "box",
+            Reduction::Subsample => "subsample",
+            Reduction::Tent => "tent",
         }
     }
 
     /// Samples of the next level along an axis of `n`.
     pub fn next_len(self, n: usize) -> usize {
         match self {
-            Reduction::Binomial => n.div_ceil(2),
+            Reduction::Binomial | Reduction::Subsample | Reduction::Tent => n.div_ceil(2),
             Reduction::Box => (n / 2).max(1),
         }
     }
@@ -78,7 +91,7 @@ impl Default for PyramidOptions {
             chunk: 64,
             shard: None,
             levels: None,
-            reduction: Reduction::Binomial,
+            reduction: Reduction::Box,
             ty: ZarrType::F32,
             spacing: [1.0; 3],
             zstd_level: 3,
@@ -258,7 +271,8 @@ fn reduce_box(
     // The footprint of [lo, hi] on level k.
     let reach = match o.reduction {
         Reduction::Binomial => 2,
-        Reduction::Box => 1,
+        Reduction::Box | Reduction::Tent => 1,
+        Reduction::Subsample => 0,
     };
     let f0: [usize; 3] = std::array::from_fn(|a| (2 * lo[a]).saturating_sub(2));
     let f1: [usize; 3] = std::array::from_fn(|a| (2 * hi[a] + reach).min(n[a] - 1));
@@ -296,8 +310,8 @@ fn reduce_box(
             count,
             |j, t| {
                 let p = match o.reduction {
-                    Reduction::Binomial => mirror(2 * (lo[axis] + j) as i64 + t, n[axis]),
-                    Reduction::Box => (2 * (lo[axis] + j) + t.max(0) as usize).min(n[axis] - 1),
+                    Reduction::Binomial | Reduction::Tent => mirror(2 * (lo[axis] + j) as i64 + t, n[axis]),
+                    Reduction::Box | Reduction::Subsample => (2 * (lo[axis] + j) + t.max(0) as usize).min(n[axis] - 1),
                 };
                 p - f0[axis]
             },
@@ -334,9 +348,13 @@ fn reduce_axis(
 ) -> Vec<f32> {
     const BINOMIAL: [(i64, f32); 5] = [(-2, 1.0), (-1, 4.0), (0, 6.0), (1, 4.0), (2, 1.0)];
     const BOX: [(i64, f32); 2] = [(0, 8.0), (1, 8.0)];
+    const SUBSAMPLE: [(i64, f32); 1] = [(0, 16.0)];
+    const TENT: [(i64, f32); 3] = [(-1, 4.0), (0, 8.0), (1, 4.0)];
     let taps: &[(i64, f32)] = match reduction {
         Reduction::Binomial => &BINOMIAL,
         Reduction::Box => &BOX,
+        Reduction::Subsample => &SUBSAMPLE,
+        Reduction::Tent => &TENT,
     };
     let mut out_size = size;
     out_size[axis] = count;
@@ -405,6 +423,10 @@ fn reduction_doc(r: Reduction) -> &'static str {
             "(1,4,6,4,1)/16 per axis, every second sample, vertex-aligned (level k+1 sample i on level k sample 2i)"
         }
         Reduction::Box => "mean of each 2x2x2 block, cell-centred",
+        Reduction::Subsample => "every second sample, no low-pass, vertex-aligned",
+        Reduction::Tent => {
+            "(1,2,1)/4 per axis, every second sample, vertex-aligned (level k+1 sample i on level k sample 2i)"
+        }
     }
 }
 
