@@ -413,3 +413,39 @@ fn bad_stores_are_one_line_and_exit_2_and_a_missing_chunk_reads_as_fill() {
     assert_eq!(all[9 + d[0] * (1 + d[1])], formula(9, 1, 1, 0, 0), "in the next chunk");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn a_4d_filter_draws_a_stores_time_points_as_it_draws_the_same_raw_frames() {
+    let dir = temp("four");
+    let frames = dir.join("frames");
+    std::fs::create_dir_all(&frames).unwrap();
+    for t in 0..2 {
+        let mut bytes = Vec::new();
+        for z in 0..8 {
+            for y in 0..8 {
+                for x in 0..8 {
+                    bytes.extend((formula(x, y, z, 0, t) - 100.0).to_le_bytes());
+                }
+            }
+        }
+        std::fs::write(frames.join(format!("frame_{t}.raw")), bytes).unwrap();
+    }
+    let store = fixture("v05-i16-tczyx.zarr");
+    let args = ["--filter", "z4_cubic", "--iso", "0", "--time", "0.5", "--size", "48"];
+    let run = |extra: &[&str], out: &Path| {
+        let o = Command::new(env!("CARGO_BIN_EXE_boxforge"))
+            .arg("render")
+            .args(args)
+            .args(extra)
+            .arg("--out")
+            .arg(out)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{extra:?}: {}", String::from_utf8_lossy(&o.stderr));
+        std::fs::read(out).unwrap()
+    };
+    let from_store = run(&["--volume", store.to_str().unwrap()], &dir.join("a.png"));
+    let from_raw = run(&["--volume", frames.to_str().unwrap(), "--raw", "8,8,8,f32"], &dir.join("b.png"));
+    assert_eq!(from_store, from_raw);
+    let _ = std::fs::remove_dir_all(&dir);
+}

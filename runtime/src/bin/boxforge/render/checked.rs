@@ -349,12 +349,5 @@ fn four(a: RenderArgs, f: Filter) -> Result<FourRequest, Failure> {
         (None, Some(n)) => Times::Frames(n),
         (None, None) => Times::Middle,
     };
-    let source = source(&a, false)?;
-    if source.zarr.is_some() {
-        return Err(Failure(format!(
-            "{}: 4D filters read time series from ml-drift:N,F, a 4D .nii or raw frames, not yet from an OME-Zarr store; draw one time point with a 3D filter and --time N",
-            a.volume
-        )));
-    }
-    Ok(FourRequest { source, frame, filter: f, layout, exact, tf, times })
+    Ok(FourRequest { source: source(&a, false)?, frame, filter: f, layout, exact, tf, times })
 }

@@ -12,6 +12,7 @@ use boxforge_runtime::gpu::Gpu;
 use boxforge_runtime::render::dvr::transfer::TransferFunction;
 use boxforge_runtime::render::four::{FourIsoOptions, FourIsoRenderer};
 use boxforge_runtime::render::Camera;
+use boxforge_runtime::volume::zarr::{OmeZarr, Selection, ZarrVolume};
 use boxforge_runtime::volume::{parse_raw_spec, LatticeVolume4, VolumeSeries};
 use std::path::{Path, PathBuf};
 
@@ -19,7 +20,8 @@ use std::path::{Path, PathBuf};
 /// units per frame and the number of frames: `ml-drift:N,F` (the drifting
 /// Marschner-Lobb signal, N^3 samples in F frames, sampled on the lattice at
 /// that count), a `.nii`/`.nii.gz` with a fourth dimension, or a folder of
-/// numbered raw frames with `--raw nx,ny,nz,type` (Cartesian series: as they
+/// numbered raw frames with `--raw nx,ny,nz,type`, or the time points of an
+/// OME-Zarr image's level and channel (Cartesian series: as they
 /// are on Z^4, else their lattice subset or, with --resample, resampled at a
 /// matched count).
 fn load_volume(a: &Source, lattice: &Lattice) -> Result<(LatticeVolume4, f64, usize), Failure> {
@@ -37,7 +39,9 @@ fn load_volume(a: &Source, lattice: &Lattice) -> Result<(LatticeVolume4, f64, us
         return Ok((vol, per_frame, f));
     }
     let path = Path::new(volume);
-    let series = if path.is_dir() {
+    let series = if let Some(s) = a.zarr {
+        zarr_series(path, s)?
+    } else if path.is_dir() {
         let spec = a.raw.as_deref().ok_or_else(|| {
             Failure(format!("--volume {volume} is a folder of raw frames: give their format with --raw nx,ny,nz,type"))
         })?;
@@ -56,6 +60,26 @@ fn load_volume(a: &Source, lattice: &Lattice) -> Result<(LatticeVolume4, f64, us
     } else {
         (LatticeVolume4::subset(lattice, &series).map_err(err)?, 1.0, frames)
     })
+}
+
+/// Every time point of an OME-Zarr image's level and channel, as frames.
+fn zarr_series(path: &Path, s: Selection) -> Result<VolumeSeries, Failure> {
+    let fail = |e: &dyn std::fmt::Display| Failure(e.to_string());
+    // Frames are read whole as Cartesian volumes; the 4D lattice takes them after.
+    let cc = Lattice::builtin("cc").map_err(|e| fail(&e))?;
+    let image = OmeZarr::open(path).map_err(|e| fail(&e))?;
+    if image.times() < 2 {
+        return Err(Failure(format!(
+            "{}: a 4D filter draws a time series, but the image has {} time point (no t axis with 2 or more): draw it with a 3D filter",
+            path.display(),
+            image.times()
+        )));
+    }
+    let frames = (0..image.times())
+        .map(|time| ZarrVolume::new(&image, Selection { time, ..s }, &cc)?.to_volume())
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|e| fail(&e))?;
+    VolumeSeries::from_frames(frames).map_err(|e| fail(&e))
 }
 
 /// `out.png` -> `out-0003.png`.
