@@ -28,6 +28,10 @@ pub enum BenchError {
     Target(#[from] crate::targets::TargetError),
     #[error("the MNI head {path} is missing: run from the repository root (it ships data/), or leave it out")]
     MissingMni { path: String },
+    /// A kernel that filters in hardware (it declares the `ref_linear`
+    /// sampler) given samples in a layout the sampler cannot read.
+    #[error("{label} filters the samples in hardware, which needs the embedded layout (one 3D texture of the samples), not the {} layout: upload the volume in the embedded layout", layout.name())]
+    FilterLayout { label: String, layout: boxforge::emit::Layout },
     /// The external shader to time against a generated module.
     #[error("cannot read {path}: {reason} (check the path)")]
     ExternalShader { path: String, reason: String },

@@ -1,6 +1,7 @@
 //! A compiled throughput kernel with its buffers, and interleaved timing.
 
 use super::stats::round_order;
+use super::BenchError;
 use crate::gpu::binding::storage_entry;
 use crate::gpu::{Gpu, GpuError};
 use crate::references;
@@ -58,24 +59,28 @@ impl Job {
     /// Compiles `source` (which has `bench_main`) over the points. A source
     /// declaring `ref_linear` gets a linear clamp-to-edge sampler in group 1
     /// and the volume bound as a filterable texture.
-    pub fn new(gpu: &Gpu, source: &str, label: &str, dv: &DeviceVolume, points: &[[f32; 4]]) -> Result<Job, GpuError> {
+    pub fn new(
+        gpu: &Gpu,
+        source: &str,
+        label: &str,
+        dv: &DeviceVolume,
+        points: &[[f32; 4]],
+    ) -> Result<Job, BenchError> {
         let sampled = references::uses_sampler(source);
         if sampled && !can_filter_f32(gpu) {
             return Err(GpuError::MissingFeature {
                 feature: "FLOAT32_FILTERABLE",
                 needed_for: format!("{label} (it filters an R32Float texture)"),
                 fix: "run it on an adapter that filters f32 textures",
-            });
+            }
+            .into());
         }
         if sampled && dv.layout != Layout::Embedded {
-            return Err(GpuError::Validation {
-                what: label.to_string(),
-                message: "hardware filtering needs the embedded layout".into(),
-            });
+            return Err(BenchError::FilterLayout { label: label.to_string(), layout: dv.layout });
         }
         let shader = gpu.compile(label, source)?;
         let samples = (dv.layout_entries(0, wgpu::ShaderStages::COMPUTE), dv.bind_entries(0));
-        Job::with_shader(gpu, &shader, ("bench_main", label), sampled, samples, points)
+        Ok(Job::with_shader(gpu, &shader, ("bench_main", label), sampled, samples, points)?)
     }
 
     /// [`Job::new`] over 4D samples (one storage buffer; a source made by

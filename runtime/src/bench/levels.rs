@@ -90,8 +90,8 @@ pub fn measure(
         for k in 0..levels {
             progress(&format!("{}: level {k}", d.filter.name));
             let mut rms = Vec::new();
-            for (ri, r) in REDUCTIONS.iter().enumerate() {
-                let (data, dk) = &pyramids[ri][k];
+            for (r, pyramid) in REDUCTIONS.iter().zip(&pyramids) {
+                let (data, dk) = &pyramid[k];
                 let at = |j: &[i64]| {
                     let c: [usize; 3] = std::array::from_fn(|a| j[a].clamp(0, dk[a] as i64 - 1) as usize);
                     f64::from(data[c[0] + dk[0] * (c[1] + dk[1] * c[2])])

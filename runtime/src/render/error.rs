@@ -16,8 +16,8 @@ pub enum RenderError {
     #[error(transparent)]
     Volume(#[from] crate::volume::VolumeError),
     /// A prepared scene, cache or table used with options it was not built for.
-    #[error("the {what} was built for {built}, the options ask for {asked}: build it again for these options")]
-    BuiltForOther { what: &'static str, built: String, asked: String },
+    #[error("{0}: build it again for these options")]
+    BuiltForOther(Mismatch),
     /// A PERM cache peeled for rays that stop earlier than the render's.
     #[error("this PERM cache was peeled for rays that stop at opacity {peeled}; a render with termination {asked} may reach peeled cells: build one for it")]
     PermPeeled { peeled: f32, asked: f32 },
@@ -84,4 +84,23 @@ pub enum RenderError {
     /// A host depth texture whose texels are not the target's pixels.
     #[error("the host depth texture is {}x{} with {samples} sample(s), the target {}x{}: pass a single-sample depth texture of the target's size", depth[0], depth[1], target[0], target[1])]
     HostDepthSize { depth: [u32; 2], samples: u32, target: [u32; 2] },
+}
+
+/// What a prepared scene, cache or table was built for, against what the
+/// options ask (for [`RenderError::BuiltForOther`]).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum Mismatch {
+    /// A scene's skipping blocks, bounded for another block edge.
+    #[error("the scene's block grid was built for block edge {built}, the options ask for block edge {asked}")]
+    BlockEdge { built: i32, asked: i32 },
+    /// A scene's shader, built with another curvature transfer function radius.
+    #[error("the scene's shader (DvrScene::with_curvature) was built for curvature transfer function {built:?}, the options ask for {asked:?}")]
+    Curvature { built: Option<f32>, asked: Option<f32> },
+    /// A pre-integration table for segments of another step.
+    #[error("the pre-integration table was built for step {built}, the options ask for step {asked}")]
+    PreintStep { built: f32, asked: f32 },
+    /// A PERM cache built for another transfer function, a shorter step,
+    /// or with(out) pre-integration.
+    #[error("the PERM cache was built for its transfer function at step {built_step} (pre-integrated: {built_preint}), the options ask for another transfer function or step {asked_step} (pre-integrated: {asked_preint})")]
+    PermTables { built_step: f32, built_preint: bool, asked_step: f32, asked_preint: bool },
 }

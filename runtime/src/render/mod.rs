@@ -21,5 +21,5 @@ mod templates;
 
 pub use camera::{Camera, FrameCamera, HostDepth, Target, HOST_DEPTH_FORMATS};
 pub use dvr::{DvrLook, DvrRenderer};
-pub use error::RenderError;
+pub use error::{Mismatch, RenderError};
 pub use iso::renderer::{IsoOptions, IsoRenderer};

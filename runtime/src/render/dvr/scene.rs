@@ -6,7 +6,7 @@ use crate::gpu::Gpu;
 use crate::render::blocks::block_bounds;
 use crate::render::dvr::transfer::{Preint, Tf1d, TransferFunction};
 use crate::render::iso::Frame;
-use crate::render::RenderError;
+use crate::render::{Mismatch, RenderError};
 use crate::volume::{DeviceVolume, LatticeVolume, VolumeOptions};
 use boxforge::derive::Derivation;
 use boxforge::emit::Layout;
@@ -138,9 +138,17 @@ impl<'a> DvrScene<'a> {
         Ok(DvrScene { gpu, d, vol, block, pipeline, bgl_rc, bgl_s, bg_s, dv, bounds, curvature: None })
     }
 
-    /// The edge of the skipping blocks the scene bounded, in unit cubes.
-    pub(crate) fn block(&self) -> i32 {
-        self.block
+    /// Refuses options that this scene's block grid, or the pre-integration
+    /// table `pi`, was not built for (the checks of [`DvrScene::render_tables`]
+    /// and of the PERM cache's render on a scene).
+    pub(crate) fn check_tables(&self, pi: Option<&Preint>, o: &DvrOptions) -> Result<(), RenderError> {
+        if o.block != self.block {
+            return Err(RenderError::BuiltForOther(Mismatch::BlockEdge { built: self.block, asked: o.block }));
+        }
+        if let Some(p) = pi.filter(|p| p.step != o.step) {
+            return Err(RenderError::BuiltForOther(Mismatch::PreintStep { built: p.step, asked: o.step }));
+        }
+        Ok(())
     }
 
     /// Renders one image (a warm-up frame, then `o.frames` timed frames);
@@ -156,26 +164,9 @@ impl<'a> DvrScene<'a> {
     /// table must be for `o.step`; None renders without pre-integration).
     pub fn render_tables(&self, table: &Tf1d, pi: Option<&Preint>, o: &DvrOptions) -> Result<Frame, RenderError> {
         let (gpu, dev) = (self.gpu, &self.gpu.device);
-        if o.block != self.block {
-            return Err(RenderError::BuiltForOther {
-                what: "scene's block grid",
-                built: format!("block edge {}", self.block),
-                asked: format!("block edge {}", o.block),
-            });
-        }
+        self.check_tables(pi, o)?;
         if o.curvature != self.curvature {
-            return Err(RenderError::BuiltForOther {
-                what: "scene's shader (DvrScene::with_curvature)",
-                built: format!("curvature transfer function {:?}", self.curvature),
-                asked: format!("{:?}", o.curvature),
-            });
-        }
-        if let Some(p) = pi.filter(|p| p.step != o.step) {
-            return Err(RenderError::BuiltForOther {
-                what: "pre-integration table",
-                built: format!("step {}", p.step),
-                asked: format!("step {}", o.step),
-            });
+            return Err(RenderError::BuiltForOther(Mismatch::Curvature { built: self.curvature, asked: o.curvature }));
         }
         let o = &DvrOptions { preintegrate: pi.is_some(), ..o.clone() };
         let pi_size = pi.map_or(2, |p| p.size);

@@ -9,7 +9,7 @@ use crate::render::dvr::caster::{look_of, CasterParts, DvrCaster};
 use crate::render::dvr::transfer::{Preint, Tf1d, TransferFunction};
 use crate::render::dvr::{DvrLook, DvrOptions, DvrScene};
 use crate::render::iso::Frame;
-use crate::render::RenderError;
+use crate::render::{Mismatch, RenderError};
 use crate::volume::DeviceVolume;
 
 impl PermCache {
@@ -27,26 +27,14 @@ impl PermCache {
             return Err(RenderError::PermPeeled { peeled: t, asked: o.termination });
         }
         if table.entries != self.table || o.step > self.step || pi.is_some() != self.preintegrate {
-            return Err(RenderError::BuiltForOther {
-                what: "PERM cache",
-                built: format!("its transfer function at step {} (pre-integrated: {})", self.step, self.preintegrate),
-                asked: format!("another transfer function or step {} (pre-integrated: {})", o.step, pi.is_some()),
-            });
+            return Err(RenderError::BuiltForOther(Mismatch::PermTables {
+                built_step: self.step,
+                built_preint: self.preintegrate,
+                asked_step: o.step,
+                asked_preint: pi.is_some(),
+            }));
         }
-        if o.block != scene.block() {
-            return Err(RenderError::BuiltForOther {
-                what: "scene's block grid",
-                built: format!("block edge {}", scene.block()),
-                asked: format!("block edge {}", o.block),
-            });
-        }
-        if let Some(p) = pi.filter(|p| p.step != o.step) {
-            return Err(RenderError::BuiltForOther {
-                what: "pre-integration table",
-                built: format!("step {}", p.step),
-                asked: format!("step {}", o.step),
-            });
-        }
+        scene.check_tables(pi, o)?;
         let look = DvrLook { preintegrate: pi.is_some(), ..look_of(o) };
         let parts = CasterParts {
             label: "dvr perm",
