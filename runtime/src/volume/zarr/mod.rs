@@ -22,7 +22,7 @@ pub use error::ZarrError;
 #[cfg(feature = "http")]
 pub use http::{HttpOptions, HttpStore};
 pub use meta::{AxisKind, LevelMeta, Multiscale};
-pub use source::ZarrVolume;
+pub use source::{ZarrVolume, DEFAULT_CHUNK_CACHE};
 pub use store::{is_store, OmeZarr, Selection, ZarrLevel};
 pub use write::{write_pyramid, PyramidOptions, PyramidReport, Reduction};
 
