@@ -32,6 +32,11 @@ if $quick; then
     # The browser test skips itself without Chromium (BOXFORGE_NO_BROWSER).
     export BOXFORGE_NO_BROWSER=1
 else
+    # A whole run builds every crate from scratch or nearly (clean clones,
+    # CI, the feature builds): incremental compilation only adds its caches'
+    # cost there. The inner loop (--quick) keeps it. An explicit
+    # CARGO_INCREMENTAL wins.
+    export CARGO_INCREMENTAL="${CARGO_INCREMENTAL:-0}"
     . scripts/ensure-chromium.sh
     for tool in fmt clippy; do
         cargo "$tool" --version >/dev/null 2>&1 || { echo "error: cargo $tool not found; install it with: rustup component add $( [ "$tool" = fmt ] && echo rustfmt || echo clippy )" >&2; exit 2; }

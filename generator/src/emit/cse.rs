@@ -12,7 +12,9 @@
 
 use super::writer::{lit, Body};
 use crate::math::exact::Q;
-use std::collections::{BTreeMap, BinaryHeap, HashMap};
+use rustc_hash::FxHashMap;
+use std::collections::{BTreeMap, BinaryHeap};
+use std::sync::{Mutex, OnceLock};
 
 /// A straight-line program for y = W x: `defs[m]` defines variable
 /// `inputs + m` as `x_a + q x_b`; `rows[i]` is y_i as a sparse combination of
@@ -33,7 +35,7 @@ type Key = (usize, usize, u32);
 /// (deterministic, so generated files are too).
 #[derive(Default)]
 struct Interner {
-    ids: HashMap<Q, u32>,
+    ids: FxHashMap<Q, u32>,
     values: Vec<Q>,
 }
 
@@ -49,6 +51,78 @@ impl Interner {
     }
 }
 
+/// Ratios w_b / w_a of interned weights: numbered by [`Interner`], each
+/// pair of weight ids divided once.
+struct Ratios {
+    interner: Interner,
+    of_weights: FxHashMap<(u32, u32), u32>,
+    weight_values: Vec<Q>,
+}
+
+impl Ratios {
+    /// Pair key of two terms (variable, weight id): (a, b, id of w_b / w_a), a < b.
+    fn key_of(&mut self, x: (usize, u32), y: (usize, u32)) -> Key {
+        let (lo, hi) = if x.0 < y.0 { (x, y) } else { (y, x) };
+        let id = match self.of_weights.get(&(lo.1, hi.1)) {
+            Some(&id) => id,
+            None => {
+                let id =
+                    self.interner.id(self.weight_values[hi.1 as usize].clone() / &self.weight_values[lo.1 as usize]);
+                self.of_weights.insert((lo.1, hi.1), id);
+                id
+            }
+        };
+        (lo.0, hi.0, id)
+    }
+
+    /// Is w_b / w_a the ratio numbered `q`? (Numbers no new ratio.)
+    fn is(&self, wa: u32, wb: u32, q: u32) -> bool {
+        match self.of_weights.get(&(wa, wb)) {
+            Some(&id) => id == q,
+            None => {
+                self.weight_values[wb as usize].clone() / &self.weight_values[wa as usize]
+                    == self.interner.values[q as usize]
+            }
+        }
+    }
+}
+
+/// How many weights the memo of [`LinearMap::shared`] holds before it starts
+/// over (a bound on its memory: a few tens of MB).
+pub const MEMO_WEIGHTS: usize = 1 << 20;
+
+/// Remembered results of [`LinearMap::shared`], by weight matrix.
+#[derive(Default)]
+struct Memo {
+    maps: FxHashMap<Vec<Vec<Q>>, LinearMap>,
+    weights: usize,
+}
+
+impl Memo {
+    fn get(&self, weights: &[Vec<Q>]) -> Option<&LinearMap> {
+        self.maps.get(weights)
+    }
+
+    fn insert(&mut self, weights: &[Vec<Q>], map: &LinearMap) {
+        let size: usize = weights.iter().map(Vec::len).sum();
+        if size > MEMO_WEIGHTS {
+            return;
+        }
+        if self.weights + size > MEMO_WEIGHTS {
+            self.maps.clear();
+            self.weights = 0;
+        }
+        if self.maps.insert(weights.to_vec(), map.clone()).is_none() {
+            self.weights += size;
+        }
+    }
+}
+
+fn memo() -> &'static Mutex<Memo> {
+    static MEMO: OnceLock<Mutex<Memo>> = OnceLock::new();
+    MEMO.get_or_init(Default::default)
+}
+
 impl LinearMap {
     /// The dense map with no shared subexpressions: rows of weights over the inputs.
     pub fn dense(weights: &[Vec<Q>]) -> LinearMap {
@@ -61,22 +135,54 @@ impl LinearMap {
     }
 
     /// Greedy pair extraction until no pair occurs twice.
+    ///
+    /// A pure function of `weights`, and the costliest step of emission:
+    /// one module emits the same piece's map for its value, gradient and
+    /// Hessian in several forms, and a process (the catalog's generation,
+    /// a test binary) emits each filter in several layouts and variants. So
+    /// the result is remembered per weight matrix, up to [`MEMO_WEIGHTS`].
     pub fn shared(weights: &[Vec<Q>]) -> LinearMap {
+        if let Some(map) = memo().lock().unwrap_or_else(|e| e.into_inner()).get(weights) {
+            return map.clone();
+        }
+        let map = LinearMap::shared_uncached(weights);
+        let mut memo = memo().lock().unwrap_or_else(|e| e.into_inner());
+        memo.insert(weights, &map);
+        map
+    }
+
+    /// [`LinearMap::shared`] without the memo. Weights are interned, so that
+    /// each ratio of two distinct weights is divided once; the choices (and
+    /// so the generated code) are those of the plain greedy pass: ratios are
+    /// numbered in order of first appearance and pairs ranked by (count,
+    /// smallest key).
+    fn shared_uncached(weights: &[Vec<Q>]) -> LinearMap {
         let mut map = LinearMap::dense(weights);
-        let mut rows: Vec<BTreeMap<usize, Q>> = map.rows.iter().map(|r| r.iter().cloned().collect()).collect();
-        let mut ratios = Interner::default();
-        // Pair key of two terms (a < b): (a, b, id of w_b / w_a).
-        let key_of = |ratios: &mut Interner, a: (usize, &Q), b: (usize, &Q)| -> Key {
-            let (lo, hi) = if a.0 < b.0 { (a, b) } else { (b, a) };
-            (lo.0, hi.0, ratios.id(hi.1.clone() / lo.1))
-        };
-        let mut counts: HashMap<Key, i64> = HashMap::new();
-        let mut rows_of: HashMap<Key, Vec<usize>> = HashMap::new();
+        let mut weight_ids: FxHashMap<Q, u32> = FxHashMap::default();
+        let mut weight_values: Vec<Q> = Vec::new();
+        let mut rows: Vec<BTreeMap<usize, u32>> = map
+            .rows
+            .iter()
+            .map(|r| {
+                r.iter()
+                    .map(|(k, c)| {
+                        let id = *weight_ids.entry(c.clone()).or_insert_with(|| {
+                            weight_values.push(c.clone());
+                            weight_values.len() as u32 - 1
+                        });
+                        (*k, id)
+                    })
+                    .collect()
+            })
+            .collect();
+        let mut ratios = Ratios { interner: Interner::default(), of_weights: FxHashMap::default(), weight_values };
+        let mut counts: FxHashMap<Key, i64> = FxHashMap::default();
+        let mut rows_of: FxHashMap<Key, Vec<usize>> = FxHashMap::default();
         for (i, row) in rows.iter().enumerate() {
-            let terms: Vec<(usize, &Q)> = row.iter().map(|(k, c)| (*k, c)).collect();
+            let terms: Vec<(usize, u32)> = row.iter().map(|(k, c)| (*k, *c)).collect();
             for x in 0..terms.len() {
                 for y in x + 1..terms.len() {
-                    let k = key_of(&mut ratios, terms[x], terms[y]);
+                    let k = ratios.key_of(terms[x], terms[y]);
                     *counts.entry(k).or_default() += 1;
                     rows_of.entry(k).or_default().push(i);
                 }
@@ -90,7 +196,7 @@ impl LinearMap {
                 continue; // stale entry
             }
             let (a, b, qid) = key;
-            let q = ratios.values[qid as usize].clone();
+            let q = ratios.interner.values[qid as usize].clone();
             let t = next_var;
             next_var += 1;
             map.defs.push((a, b, q.clone()));
@@ -99,19 +205,17 @@ impl LinearMap {
             touched.dedup();
             for i in touched {
                 let row = &rows[i];
-                let (Some(wa), Some(wb)) = (row.get(&a), row.get(&b)) else { continue };
-                if wb.clone() / wa != q {
+                let (Some(&wa), Some(&wb)) = (row.get(&a), row.get(&b)) else { continue };
+                if !ratios.is(wa, wb, qid) {
                     continue;
                 }
-                let wa = wa.clone();
                 // Remove the pairs of a and b with everything else in the row.
-                let others: Vec<(usize, Q)> =
-                    row.iter().filter(|(k, _)| **k != a && **k != b).map(|(k, c)| (*k, c.clone())).collect();
-                let wb = row[&b].clone();
-                let mut dec = vec![key_of(&mut ratios, (a, &wa), (b, &wb))];
-                for (k, ck) in &others {
-                    dec.push(key_of(&mut ratios, (a, &wa), (*k, ck)));
-                    dec.push(key_of(&mut ratios, (b, &wb), (*k, ck)));
+                let others: Vec<(usize, u32)> =
+                    row.iter().filter(|(k, _)| **k != a && **k != b).map(|(k, c)| (*k, *c)).collect();
+                let mut dec = vec![ratios.key_of((a, wa), (b, wb))];
+                for &(k, ck) in &others {
+                    dec.push(ratios.key_of((a, wa), (k, ck)));
+                    dec.push(ratios.key_of((b, wb), (k, ck)));
                 }
                 for k in dec {
                     if let Some(n) = counts.get_mut(&k) {
@@ -124,8 +228,8 @@ impl LinearMap {
                 let row = &mut rows[i];
                 row.remove(&a);
                 row.remove(&b);
-                for (k, ck) in &others {
-                    let nk = key_of(&mut ratios, (t, &wa), (*k, ck));
+                for &(k, ck) in &others {
+                    let nk = ratios.key_of((t, wa), (k, ck));
                     let n = counts.entry(nk).or_default();
                     *n += 1;
                     rows_of.entry(nk).or_default().push(i);
@@ -136,7 +240,9 @@ impl LinearMap {
                 row.insert(t, wa);
             }
         }
-        map.rows = rows.into_iter().map(|r| r.into_iter().collect()).collect();
+        let values = &ratios.weight_values;
+        map.rows =
+            rows.into_iter().map(|r| r.into_iter().map(|(k, w)| (k, values[w as usize].clone())).collect()).collect();
         map
     }
 
