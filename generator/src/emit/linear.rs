@@ -152,27 +152,38 @@ fn tensor_bernstein_non_negative(p: &Poly, lo: &[Q], hi: &[Q]) -> bool {
         let e: Vec<usize> = e.iter().map(|&x| x as usize).collect();
         a[flat(&e)] = c.clone();
     }
+    // Power -> Bernstein on [0, 1], the same for every fibre: b_k = sum_j c_j C(k,j)/C(n,j).
+    let to_bernstein: Vec<Vec<Q>> = (0..side)
+        .map(|k| (0..=k).map(|j| binomial(k as u32, j as u32) / binomial(n as u32, j as u32)).collect())
+        .collect();
     for axis in 0..s {
         let stride = side.pow(axis as u32);
         let h = &hi[axis] - &lo[axis];
+        // q(lo + h t) in powers of t: c_j = sum_k a_k C(k,j) lo^(k-j) h^j, one table per axis.
+        let shift: Vec<Vec<Q>> = (0..side)
+            .map(|k| {
+                (0..=k).map(|j| binomial(k as u32, j as u32) * lo[axis].pow((k - j) as u32) * h.pow(j as u32)).collect()
+            })
+            .collect();
         for start in 0..a.len() {
             if !(start / stride).is_multiple_of(side) {
                 continue; // not the first entry of a fibre along this axis
             }
             let fibre: Vec<Q> = (0..side).map(|k| a[start + k * stride].clone()).collect();
-            // q(lo + h t) in powers of t, then power -> Bernstein on [0, 1].
+            if fibre.iter().all(Q::is_zero) {
+                continue;
+            }
             let mut c = vec![Q::zero(); side];
             for (k, ak) in fibre.iter().enumerate() {
                 if ak.is_zero() {
                     continue;
                 }
                 for (j, cj) in c.iter_mut().enumerate().take(k + 1) {
-                    *cj += &(ak * &(binomial(k as u32, j as u32) * lo[axis].pow((k - j) as u32) * h.pow(j as u32)));
+                    *cj += &(ak * &shift[k][j]);
                 }
             }
             for k in 0..side {
-                let b: Q =
-                    (0..=k).map(|j| &c[j] * &(binomial(k as u32, j as u32) / binomial(n as u32, j as u32))).sum();
+                let b: Q = (0..=k).filter(|&j| !c[j].is_zero()).map(|j| &c[j] * &to_bernstein[k][j]).sum();
                 a[start + k * stride] = b;
             }
         }

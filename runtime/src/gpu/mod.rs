@@ -63,6 +63,17 @@ pub struct Gpu {
     uncaptured: std::sync::Arc<std::sync::Mutex<Option<String>>>,
 }
 
+/// wgpu's flags for the build (validation in debug builds), less `DEBUG`
+/// unless `WGPU_DEBUG=1` asks for it; the other `WGPU_*` flag variables
+/// apply as wgpu documents them. `DEBUG` writes source-line debug info into
+/// every SPIR-V module, and naga finds each statement's line by scanning
+/// the WGSL from its start: on generated shaders of ten thousand lines that
+/// was a third of a debug build's pipeline time (the test suite's), for
+/// nothing a renderer reads.
+fn instance_flags() -> wgpu::InstanceFlags {
+    (wgpu::InstanceFlags::from_build_config() - wgpu::InstanceFlags::DEBUG).with_env()
+}
+
 impl Gpu {
     /// Opens a device. `adapter_name` (or env WGPU_ADAPTER_NAME) selects an
     /// adapter by case-insensitive substring; otherwise the first discrete,
@@ -82,6 +93,7 @@ impl Gpu {
         let enumerate = |backends: wgpu::Backends| {
             let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
                 backends,
+                flags: instance_flags(),
                 ..wgpu::InstanceDescriptor::new_without_display_handle()
             });
             pollster::block_on(instance.enumerate_adapters(backends))
