@@ -333,7 +333,8 @@ pub enum BackError {
 /// [`BackError`]: a module that does not validate or is not boxforge's, a
 /// backend's refusal, a renamed public name, a failed check.
 pub fn translate(wgsl: &str, stem: &str, target: Target, opts: &TranslateOptions) -> Result<Translated, BackError> {
-    let prepared = modules::Prepared::new(wgsl, stem, !opts.no_eval_kernel)?;
+    let prepared = modules::Prepared::remembered(wgsl, stem, !opts.no_eval_kernel)?;
+    let prepared = &*prepared;
     let units = match target {
         Target::Wgsl => vec![Unit {
             file_name: format!("{stem}.wgsl"),
@@ -352,9 +353,9 @@ pub fn translate(wgsl: &str, stem: &str, target: Target, opts: &TranslateOptions
                 .collect(),
         }],
         #[cfg(feature = "targets")]
-        Target::Spirv => spirv_writer::translate(&prepared)?,
+        Target::Spirv => spirv_writer::translate(prepared)?,
         #[cfg(feature = "targets")]
-        Target::Glsl | Target::GlslEs | Target::Hlsl | Target::Msl => text::translate(&prepared, target)?,
+        Target::Glsl | Target::GlslEs | Target::Hlsl | Target::Msl => text::translate(prepared, target)?,
         #[cfg(not(feature = "targets"))]
         _ => return Err(BackError::TargetNotBuilt { file: format!("{stem}.wgsl"), target }),
     };

@@ -109,7 +109,41 @@ fn wgsl_type(module: &Module, ty: naga::Handle<naga::Type>) -> Option<String> {
     }
 }
 
+/// How many prepared modules [`Prepared::remembered`] keeps: a caller that
+/// translates one module into every target asks for it a few times in a row.
+const REMEMBERED: usize = 4;
+
+/// The most recently prepared modules, newest last, by (WGSL, stem, eval kernel).
+type Remembered = std::collections::VecDeque<(String, String, bool, std::sync::Arc<Prepared>)>;
+
 impl Prepared {
+    /// [`Prepared::new`], remembered for the last few modules: translating
+    /// one module into the five targets parses and validates it (three
+    /// times, for the library and the kernels) once instead of five times,
+    /// and naga's front end is most of a translation's cost.
+    ///
+    /// # Errors
+    ///
+    /// As [`Prepared::new`] (errors are not remembered).
+    pub fn remembered(wgsl: &str, stem: &str, eval_kernel: bool) -> Result<std::sync::Arc<Prepared>, BackError> {
+        static MEMO: std::sync::Mutex<Remembered> = std::sync::Mutex::new(std::collections::VecDeque::new());
+        let same = |(w, s, e, _): &(String, String, bool, std::sync::Arc<Prepared>)| {
+            w == wgsl && s == stem && *e == eval_kernel
+        };
+        if let Some((.., p)) = MEMO.lock().unwrap_or_else(|e| e.into_inner()).iter().find(|x| same(x)) {
+            return Ok(p.clone());
+        }
+        let prepared = std::sync::Arc::new(Prepared::new(wgsl, stem, eval_kernel)?);
+        let mut memo = MEMO.lock().unwrap_or_else(|e| e.into_inner());
+        if !memo.iter().any(same) {
+            if memo.len() == REMEMBERED {
+                memo.pop_front();
+            }
+            memo.push_back((wgsl.to_string(), stem.to_string(), eval_kernel, prepared.clone()));
+        }
+        Ok(prepared)
+    }
+
     /// Parses and validates `wgsl`, adds the stub and (with `eval_kernel`)
     /// `<f>_eval_main`, and splits it into the library and kernel modules.
     ///

@@ -68,7 +68,57 @@ pub fn binding_purpose(filter: &str, name: &str) -> Option<&'static str> {
 /// # Errors
 ///
 /// naga's parse or validation error, rendered as text.
+///
+/// Remembered per source text (up to [`MEMO_SOURCE_BYTES`] of it): the
+/// reports read every generated module's bindings and the web viewer reads
+/// the same modules' again, and naga's front end is the costliest part of
+/// both on shaders of ten thousand lines.
 pub fn bindings_of_wgsl(source: &str) -> Result<Vec<Binding>, String> {
+    if let Some(known) = memo().lock().unwrap_or_else(|e| e.into_inner()).get(source) {
+        return known.clone();
+    }
+    let read = read_bindings(source);
+    memo().lock().unwrap_or_else(|e| e.into_inner()).insert(source, &read);
+    read
+}
+
+/// How many bytes of WGSL the memo of [`bindings_of_wgsl`] keeps before it
+/// starts over.
+pub const MEMO_SOURCE_BYTES: usize = 64 << 20;
+
+/// Bindings already read, by source text.
+#[derive(Default)]
+struct Memo {
+    read: std::collections::HashMap<String, Result<Vec<Binding>, String>>,
+    bytes: usize,
+}
+
+impl Memo {
+    fn get(&self, source: &str) -> Option<&Result<Vec<Binding>, String>> {
+        self.read.get(source)
+    }
+
+    fn insert(&mut self, source: &str, read: &Result<Vec<Binding>, String>) {
+        if source.len() > MEMO_SOURCE_BYTES {
+            return;
+        }
+        if self.bytes + source.len() > MEMO_SOURCE_BYTES {
+            self.read.clear();
+            self.bytes = 0;
+        }
+        if self.read.insert(source.to_string(), read.clone()).is_none() {
+            self.bytes += source.len();
+        }
+    }
+}
+
+fn memo() -> &'static std::sync::Mutex<Memo> {
+    static MEMO: std::sync::OnceLock<std::sync::Mutex<Memo>> = std::sync::OnceLock::new();
+    MEMO.get_or_init(Default::default)
+}
+
+/// [`bindings_of_wgsl`] without the memo.
+fn read_bindings(source: &str) -> Result<Vec<Binding>, String> {
     let module = naga::front::wgsl::parse_str(source).map_err(|e| e.emit_to_string(source))?;
     let info = Validator::new(ValidationFlags::all(), Capabilities::default())
         .validate(&module)
