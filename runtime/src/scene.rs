@@ -63,14 +63,13 @@ pub fn from_cartesian(vol: &Volume, lattice: &Lattice, conversion: Conversion) -
     if lattice.det() == 1 || conversion == Conversion::Subset {
         return LatticeVolume::subset(lattice, vol);
     }
-    let f = (lattice.det() as f64).cbrt();
-    let dims = vol.dims.map(|n| ((n as f64 * f).round() as usize).max(2));
-    let scale = (vol.dims[0] as f64 - 1.0) / (dims[0] as f64 - 1.0);
+    let (dims, scale) = crate::volume::matched_lattice(lattice, vol.dims);
     LatticeVolume::resample(lattice, vol, dims, scale)
 }
 
 /// Level, channel and time point `s` of the OME-Zarr image at `path`, on
-/// `lattice` (the level read whole: for the in-memory renderers).
+/// `lattice` (the level read whole: for the in-memory renderers); a store
+/// of lattice samples (`convert --lattice`) is read as it is.
 #[cfg(feature = "zarr")]
 pub fn load_zarr(
     path: &Path,
@@ -80,6 +79,13 @@ pub fn load_zarr(
 ) -> Result<LatticeVolume, VolumeError> {
     use crate::volume::zarr::{OmeZarr, ZarrVolume};
     let image = OmeZarr::open(path)?;
-    let vol = ZarrVolume::new(&image, s, lattice)?.to_volume()?;
-    from_cartesian(&vol, lattice, conversion)
+    let level = ZarrVolume::new(&image, s, lattice)?;
+    if level.is_lattice_store() {
+        if conversion == Conversion::Resample && lattice.det() != 1 {
+            let (path, lattice) = (path.to_path_buf(), lattice.name.clone());
+            return Err(crate::volume::zarr::ZarrError::AlreadyResampled { path, lattice }.into());
+        }
+        return level.to_lattice_volume();
+    }
+    from_cartesian(&level.to_volume()?, lattice, conversion)
 }

@@ -57,6 +57,23 @@ impl Membership {
         self.table.len()
     }
 
+    /// The per-axis periods (x, y, z).
+    #[cfg(feature = "zarr")]
+    pub(super) fn period(&self) -> [usize; 3] {
+        self.period
+    }
+
+    /// The residues mod the period that are lattice points (x fastest):
+    /// the lattice's cosets of the period grid.
+    #[cfg(feature = "zarr")]
+    pub(super) fn residues(&self) -> Vec<[usize; 3]> {
+        let p = self.period;
+        (0..self.table.len())
+            .filter(|&idx| self.table[idx])
+            .map(|idx| [idx % p[0], (idx / p[0]) % p[1], idx / (p[0] * p[1])])
+            .collect()
+    }
+
     pub(super) fn contains(&self, j: [usize; 3]) -> bool {
         let p = self.period;
         self.table[j[0] % p[0] + p[0] * ((j[1] % p[1]) + p[1] * (j[2] % p[2]))]

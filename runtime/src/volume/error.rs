@@ -137,6 +137,10 @@ pub enum VolumeError {
     /// Two files with one frame number.
     #[error("time series: {first} and {second} both claim frame {frame}: keep one file per frame number")]
     SeriesDuplicate { first: PathBuf, second: PathBuf, frame: u64 },
+    /// A filter applied to samples on another lattice (a prefilter, or a
+    /// store of lattice samples drawn with another lattice's filter).
+    #[error("filter {filter} is defined on the {filter_lattice} lattice, but the samples are on the {data_lattice} lattice: pick a filter on {data_lattice} (boxforge list shows each filter's lattice)")]
+    LatticeMismatch { filter: String, filter_lattice: String, data_lattice: String },
     /// A NaN or infinite sample met while a volume is read box by box.
     #[error(
         "{path}: the sample at voxel ({}, {}, {}) is NaN or infinite; boxforge needs finite samples: replace them (e.g. with 0 or the background value) before loading",

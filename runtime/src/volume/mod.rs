@@ -4,7 +4,8 @@
 //! and shared input checks), `nifti.rs` and `raw.rs` (file formats),
 //! `synthetic.rs` (the Marschner-Lobb test signal), `series.rs` (time
 //! series of volumes, 4D data), `convert.rs` (lattice
-//! (cc/bcc/fcc) sample sets from Cartesian volumes) and `packing.rs` (the
+//! (cc/bcc/fcc) sample sets from Cartesian volumes), `lattice_sources.rs`
+//! (the same resampled and prefiltered box by box) and `packing.rs` (the
 //! coset-packed storage layout) (docs/BOX_SPLINES.md §1, §5); `stream.rs`
 //! maps a file and reads it box by box, with the stored sample types in
 //! `stored.rs`, its own NIfTI-1 header reader in `nifti_header.rs` and the
@@ -24,6 +25,7 @@ mod format;
 mod four;
 #[cfg(feature = "files")]
 mod gz_cache;
+mod lattice_sources;
 #[cfg(feature = "nifti")]
 mod nifti;
 #[cfg(feature = "files")]
@@ -51,6 +53,7 @@ pub use format::SampleFormat;
 pub use four::{DeviceVolume4, LatticeVolume4};
 #[cfg(feature = "files")]
 pub use gz_cache::default_cache_dir;
+pub use lattice_sources::{matched_lattice, Prefiltered, Resampled};
 pub use packing::PackedVolume;
 pub use raw::{parse_raw_spec, RawType};
 pub use series::{marschner_lobb_drift, ml_drift_frequency, VolumeSeries};

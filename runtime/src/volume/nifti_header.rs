@@ -53,6 +53,11 @@ pub(super) struct NiftiHeader {
     pub(super) big_endian: bool,
     pub(super) offset: usize,
     pub(super) scale: Option<(f32, f32)>,
+    /// Voxel size along x, y, z (`pixdim[1..=3]`; 1 where the header has
+    /// none: zero, negative or not finite).
+    pub(super) voxel: [f64; 3],
+    /// The space unit of `xyzt_units` (UDUNITS names, as OME-Zarr writes them).
+    pub(super) unit: Option<&'static str>,
 }
 
 /// Parses the 348-byte NIfTI-1 header of a single-file volume (`name` is
@@ -134,5 +139,19 @@ pub(super) fn parse_nifti_header(h: &[u8], name: &Path) -> Result<NiftiHeader, V
     let offset = (vox as usize).max(NIFTI1_HEADER + 4);
     let slope = f32_at(112);
     let scale = (slope != 0.0).then(|| (slope, f32_at(116)));
-    Ok(NiftiHeader { dims, ty, big_endian, offset, scale })
+    let voxel = std::array::from_fn(|a| {
+        let v = f64::from(f32_at(80 + 4 * a));
+        if v.is_finite() && v > 0.0 {
+            v
+        } else {
+            1.0
+        }
+    });
+    let unit = match h[123] & 7 {
+        1 => Some("meter"),
+        2 => Some("millimeter"),
+        3 => Some("micrometer"),
+        _ => None,
+    };
+    Ok(NiftiHeader { dims, ty, big_endian, offset, scale, voxel, unit })
 }

@@ -76,6 +76,9 @@ pub struct MappedVolume {
     big_endian: bool,
     /// NIfTI (scl_slope, scl_inter) when the slope is non-zero.
     scale: Option<(f32, f32)>,
+    /// Voxel size (x, y, z) and space unit from a NIfTI header (1 and none for raw files).
+    voxel: [f64; 3],
+    unit: Option<&'static str>,
     lattice: Lattice,
     member: Membership,
     range: OnceLock<(f32, f32)>,
@@ -144,6 +147,8 @@ impl MappedVolume {
             ty: Sample::from_raw(ty),
             big_endian: false,
             scale: None,
+            voxel: [1.0; 3],
+            unit: None,
             lattice: lattice.clone(),
             member,
             range: OnceLock::new(),
@@ -192,6 +197,8 @@ impl MappedVolume {
             ty: h.ty,
             big_endian: h.big_endian,
             scale: h.scale,
+            voxel: h.voxel,
+            unit: h.unit,
             lattice: lattice.clone(),
             member,
             range: OnceLock::new(),
@@ -261,6 +268,18 @@ impl MappedVolume {
         } else {
             Self::open_nifti(path, lattice)
         }
+    }
+
+    /// Voxel size along x, y, z: a NIfTI header's `pixdim` (1 for raw files
+    /// and where the header has none).
+    pub fn voxel_size(&self) -> [f64; 3] {
+        self.voxel
+    }
+
+    /// The space unit a NIfTI header's `xyzt_units` gives (`millimeter`,
+    /// `micrometer`, `meter`), if any.
+    pub fn space_unit(&self) -> Option<&'static str> {
+        self.unit
     }
 
     /// The stored sample type's name ("uint8", "int16", "float32", ...).

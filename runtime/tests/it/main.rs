@@ -31,3 +31,4 @@ mod targets_run;
 mod web;
 mod zarr;
 mod zarr_http;
+mod zarr_lattice;

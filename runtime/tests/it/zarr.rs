@@ -301,6 +301,59 @@ fn converted_stores_pass_ome_zarr_models_and_read_back_with_python_zarr() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// A single-file NIfTI-1 of `dims` uint8 samples with voxel size `pixdim`
+/// (x, y, z) in millimetres.
+fn nifti_u8(dims: [usize; 3], pixdim: [f32; 3], data: &[u8]) -> Vec<u8> {
+    let mut h = vec![0u8; 352];
+    h[0..4].copy_from_slice(&348i32.to_le_bytes());
+    for (i, d) in [3, dims[0] as i16, dims[1] as i16, dims[2] as i16, 1, 1, 1, 1].iter().enumerate() {
+        h[40 + 2 * i..42 + 2 * i].copy_from_slice(&d.to_le_bytes());
+    }
+    h[70..72].copy_from_slice(&2i16.to_le_bytes()); // uint8
+    h[72..74].copy_from_slice(&8i16.to_le_bytes());
+    for (i, p) in [1.0f32, pixdim[0], pixdim[1], pixdim[2]].iter().enumerate() {
+        h[76 + 4 * i..80 + 4 * i].copy_from_slice(&p.to_le_bytes());
+    }
+    h[108..112].copy_from_slice(&352f32.to_le_bytes());
+    h[123] = 2; // xyzt_units: millimetres
+    h[344..348].copy_from_slice(b"n+1\0");
+    [h, data.to_vec()].concat()
+}
+
+#[test]
+fn a_nifti_files_voxel_size_and_unit_become_the_stores_scale() {
+    let python = peer_python();
+    let dir = temp("pixdim");
+    let dims = [6usize, 5, 4];
+    let data: Vec<u8> = (0..dims.iter().product::<usize>()).map(|i| (i * 7 % 251) as u8).collect();
+    let nii = dir.join("aniso.nii");
+    std::fs::write(&nii, nifti_u8(dims, [0.5, 2.0, 3.0], &data)).unwrap();
+    let store = dir.join("aniso.zarr");
+    let o = Command::new(env!("CARGO_BIN_EXE_boxforge"))
+        .args(["convert", nii.to_str().unwrap(), store.to_str().unwrap(), "--chunk", "4"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // What Python reads: each level's scale (z, y, x) is the voxel size times 2^k.
+    let verdict = peer_check(&python, &store, &dir.join("levels"));
+    assert_eq!(verdict["levels"][0]["scale"], serde_json::json!([3.0, 2.0, 0.5]));
+    assert_eq!(verdict["levels"][1]["scale"], serde_json::json!([6.0, 4.0, 1.0]));
+    assert_eq!(std::fs::read(dir.join("levels/0.raw")).unwrap(), data, "level 0 is the file's samples");
+    // What boxforge reads back, unit included, and carries on through a store-to-store convert.
+    let image = OmeZarr::open(&store).unwrap();
+    assert_eq!(image.metadata().space_unit.as_deref(), Some("millimeter"));
+    let again = dir.join("again.zarr");
+    let o = Command::new(env!("CARGO_BIN_EXE_boxforge"))
+        .args(["convert", store.to_str().unwrap(), again.to_str().unwrap(), "--lod", "1"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let image = OmeZarr::open(&again).unwrap();
+    assert_eq!(image.levels()[0].spacing, [1.0, 4.0, 6.0]);
+    assert_eq!(image.metadata().space_unit.as_deref(), Some("millimeter"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 fn render(args: &[&str], out: &Path) -> Vec<u8> {
     let o = Command::new(env!("CARGO_BIN_EXE_boxforge"))
         .args(["render", "--filter", "bcc7", "--size", "48", "--out", out.to_str().unwrap()])

@@ -4,7 +4,9 @@
 
 use crate::common::Failure;
 use boxforge::spec::lattice::Lattice;
-use boxforge_runtime::volume::zarr::{self, OmeZarr, PyramidOptions, Reduction, Selection, ZarrType, ZarrVolume};
+use boxforge_runtime::volume::zarr::{
+    self, LatticeOptions, OmeZarr, PyramidOptions, Reduction, Selection, ZarrType, ZarrVolume,
+};
 use boxforge_runtime::volume::{BrickSource, MappedVolume};
 use std::path::{Path, PathBuf};
 
@@ -41,9 +43,19 @@ pub struct ConvertArgs {
     /// sample, no low-pass: aliases).
     #[arg(long, value_enum, default_value = "box")]
     reduction: ReductionArg,
-    /// Stored sample type; default: the input's (float32 for scaled NIfTI and other types).
+    /// Stored sample type; default: the input's (float32 for scaled NIfTI and other types,
+    /// and for lattice samples).
     #[arg(long, value_enum)]
     dtype: Option<DtypeArg>,
+    /// Store lattice samples instead of the grid: bcc or fcc (each level resampled at a
+    /// matched sample count, stored as its Cartesian cosets; docs/OME_ZARR.md), or cc.
+    /// Default: the --prefilter filter's lattice, else the grid as it is.
+    #[arg(long)]
+    lattice: Option<String>,
+    /// Store the samples prefiltered for this filter (its spline coefficients, float32):
+    /// a catalog name or a spec file, on the --lattice lattice.
+    #[arg(long)]
+    prefilter: Option<String>,
 }
 
 /// `--reduction`.
@@ -75,11 +87,12 @@ impl From<DtypeArg> for ZarrType {
     }
 }
 
-/// The input opened: its samples, stored type and voxel size (x, y, z).
+/// The input opened: its samples, stored type, voxel size (x, y, z) and its unit.
 struct Input {
     source: Box<dyn BrickSource>,
     ty: ZarrType,
     spacing: [f64; 3],
+    unit: Option<String>,
 }
 
 pub fn run(a: ConvertArgs) -> Result<(), Failure> {
@@ -88,6 +101,34 @@ pub fn run(a: ConvertArgs) -> Result<(), Failure> {
         return Err(Failure(format!("{} exists: remove it first or give a new output path", a.output.display())));
     }
     let input = open(&a)?;
+    let prefilter = match &a.prefilter {
+        Some(name) => {
+            let filter = boxforge::spec::resolve(name).map_err(|e| fail(&e))?;
+            if filter.dim() != 3 {
+                return Err(Failure(format!(
+                    "--prefilter {name}: {} is {}D; a volume is prefiltered with a 3D filter",
+                    filter.name,
+                    filter.dim()
+                )));
+            }
+            Some(boxforge::derive::Derivation::new(&filter).map_err(|e| fail(&e))?)
+        }
+        None => None,
+    };
+    let lattice = match (&a.lattice, &prefilter) {
+        (Some(name), _) => Some(Lattice::builtin(name).map_err(|e| fail(&e))?),
+        (None, Some(d)) => Some(d.filter.lattice.clone()),
+        (None, None) => None,
+    };
+    if let (Some(l), Some(d)) = (&lattice, &prefilter) {
+        if d.filter.lattice.name != l.name {
+            return Err(Failure(format!(
+                "--prefilter {} is a filter on {}, not on --lattice {}: pick a filter on {} or drop --lattice",
+                d.filter.name, d.filter.lattice.name, l.name, l.name
+            )));
+        }
+    }
+    let default_ty = if lattice.is_some() { ZarrType::F32 } else { input.ty };
     let options = PyramidOptions {
         chunk: a.chunk,
         shard: a.shard,
@@ -98,20 +139,33 @@ pub fn run(a: ConvertArgs) -> Result<(), Failure> {
             ReductionArg::Subsample => Reduction::Subsample,
             ReductionArg::Tent => Reduction::Tent,
         },
-        ty: a.dtype.map_or(input.ty, ZarrType::from),
+        ty: a.dtype.map_or(default_ty, ZarrType::from),
         spacing: input.spacing,
+        unit: input.unit.clone(),
         ..PyramidOptions::default()
     };
-    let d = input.source.dims();
     let bar = boxforge_runtime::progress::bar(1, &format!("writing {}", a.output.display()));
-    let report = zarr::write_pyramid(input.source.as_ref(), &a.output, &options, &|done, total| {
+    let progress = |done, total| {
         bar.set_length(total);
         bar.set_position(done);
-    })
+    };
+    let report = match &lattice {
+        Some(l) => {
+            let l = LatticeOptions { lattice: l, prefilter: prefilter.as_ref() };
+            zarr::write_lattice_pyramid(input.source.as_ref(), &a.output, &options, l, &progress)
+        }
+        None => zarr::write_pyramid(input.source.as_ref(), &a.output, &options, &progress),
+    }
     .map_err(|e| fail(&e))?;
     bar.finish_and_clear();
+    let samples = match (&lattice, &prefilter) {
+        (None, _) => String::new(),
+        (Some(l), None) => format!(" {} samples", l.name),
+        (Some(l), Some(p)) => format!(" {} samples prefiltered for {}", l.name, p.filter.name),
+    };
+    let d = report.levels[0];
     outln!(
-        "wrote {} ({}x{}x{} {}, {} levels, {} reduction, chunks of {}^3{})",
+        "wrote {} ({}x{}x{}{samples} {}, {} levels, {} reduction, chunks of {}^3{})",
         a.output.display(),
         d[0],
         d[1],
@@ -146,13 +200,13 @@ fn open(a: &ConvertArgs) -> Result<Input, Failure> {
         let image = OmeZarr::open(path).map_err(|e| fail(&e))?;
         let s = Selection { level: a.lod.unwrap_or(0), channel: a.channel.unwrap_or(0), time: a.time.unwrap_or(0) };
         let v = ZarrVolume::new(&image, s, &cc).map_err(|e| fail(&e))?;
-        let (ty, spacing) = (v.sample_type(), v.spacing());
-        return Ok(Input { source: Box::new(v), ty, spacing });
+        let (ty, spacing, unit) = (v.sample_type(), v.spacing(), v.space_unit().map(str::to_string));
+        return Ok(Input { source: Box::new(v), ty, spacing, unit });
     }
     if a.input.starts_with("ml:") {
         let v = boxforge_runtime::scene::load(&a.input, None, &cc, boxforge_runtime::scene::Conversion::Subset)
             .map_err(|e| fail(&e))?;
-        return Ok(Input { source: Box::new(v), ty: ZarrType::F32, spacing: [1.0; 3] });
+        return Ok(Input { source: Box::new(v), ty: ZarrType::F32, spacing: [1.0; 3], unit: None });
     }
     let cache = boxforge_runtime::volume::default_cache_dir();
     let m = MappedVolume::open(path, a.raw.as_deref(), &cc, &cache, &|_, _| {}).map_err(|e| fail(&e))?;
@@ -162,5 +216,6 @@ fn open(a: &ConvertArgs) -> Result<Input, Failure> {
         ("int16", false) => ZarrType::I16,
         _ => ZarrType::F32,
     };
-    Ok(Input { source: Box::new(m), ty, spacing: [1.0; 3] })
+    let (spacing, unit) = (m.voxel_size(), m.space_unit().map(str::to_string));
+    Ok(Input { source: Box::new(m), ty, spacing, unit })
 }

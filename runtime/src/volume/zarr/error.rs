@@ -63,6 +63,18 @@ pub enum ZarrError {
     /// An `https://` URL (no TLS client is built in).
     #[error("{url}: boxforge reads stores over plain http:// only (no TLS client is built in): serve the store over http on a trusted network, or copy it to a folder")]
     NoTls { url: String },
+    /// Prefiltered coefficients asked for in an integer type.
+    #[error("prefiltered samples are spline coefficients, which leave the samples' range (negative lobes, overshoot): store them as float32, not {ty}")]
+    CoefficientType { ty: &'static str },
+    /// A store of lattice samples read on another lattice.
+    #[error("{path} holds {stored} lattice samples, not {asked} ones: draw it with a filter on {stored} (boxforge list shows each filter's lattice)")]
+    LatticeStore { path: PathBuf, stored: String, asked: String },
+    /// A store of lattice samples in a layout this reader does not take.
+    #[error("{path}: a store of lattice samples must have axes [c, z, y, x] with one channel per coset ({cosets}) and each level's shape its cosets' grid, but {what}: rewrite the store (boxforge convert writes this layout)")]
+    LatticeLayout { path: PathBuf, cosets: usize, what: String },
+    /// A store of lattice samples asked to be resampled again.
+    #[error("{path} already holds {lattice} lattice samples, resampled when the store was written: read them as they are, without resampling")]
+    AlreadyResampled { path: PathBuf, lattice: String },
     /// A bad pyramid option.
     #[error("pyramid option {option} = {value}: {need}")]
     Option { option: &'static str, value: u64, need: &'static str },

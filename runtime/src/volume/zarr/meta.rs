@@ -40,6 +40,8 @@ pub struct Multiscale {
     pub axis_names: Vec<String>,
     /// Level 0 (finest) first.
     pub levels: Vec<LevelMeta>,
+    /// The space axes' unit, where all three give the same one.
+    pub space_unit: Option<String>,
 }
 
 impl Multiscale {
@@ -109,7 +111,18 @@ impl Multiscale {
                 });
             }
         }
-        Ok(Multiscale { version, axes: kinds, axis_names: axes.iter().map(|a| a.name.clone()).collect(), levels })
+        let units: Vec<Option<String>> = axes[axes.len() - 3..]
+            .iter()
+            .map(|a| a.unit.as_ref().and_then(|u| serde_json::to_value(u).ok()?.as_str().map(str::to_string)))
+            .collect();
+        let space_unit = units[0].clone().filter(|_| units.iter().all(|u| *u == units[0]));
+        Ok(Multiscale {
+            version,
+            axes: kinds,
+            axis_names: axes.iter().map(|a| a.name.clone()).collect(),
+            levels,
+            space_unit,
+        })
     }
 }
 

@@ -1,6 +1,7 @@
 //! OME-Zarr images (0.4 on Zarr v2, 0.5 on Zarr v3; sharded or not; gzip,
 //! zstd or blosc; u8, u16, i16 or f32 samples) read with the `zarrs` crates
-//! as volumes, and written as pyramids (`write.rs`).
+//! as volumes, and written as pyramids (`write.rs`), of Cartesian samples or
+//! of lattice samples stored as their cosets (`cosets.rs`, `write_lattice.rs`).
 //!
 //! Reading is split by concern: `meta.rs` parses the `multiscales`
 //! metadata into plain data, `store.rs` opens the store and each level's
@@ -10,6 +11,7 @@
 //! is never read whole. With the `http` feature a store may be a URL
 //! (`http.rs`: chunks fetched on demand, Range requests for shards).
 
+mod cosets;
 mod error;
 #[cfg(feature = "http")]
 mod http;
@@ -17,7 +19,9 @@ mod meta;
 mod source;
 mod store;
 mod write;
+mod write_lattice;
 
+pub use cosets::LatticeLayout;
 pub use error::ZarrError;
 #[cfg(feature = "http")]
 pub use http::{HttpOptions, HttpStore};
@@ -25,6 +29,7 @@ pub use meta::{AxisKind, LevelMeta, Multiscale};
 pub use source::{ZarrVolume, DEFAULT_CHUNK_CACHE};
 pub use store::{is_store, OmeZarr, Selection, ZarrLevel};
 pub use write::{write_pyramid, PyramidOptions, PyramidReport, Reduction};
+pub use write_lattice::{write_lattice_pyramid, LatticeOptions};
 
 /// Sample types boxforge reads from and writes to Zarr arrays.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

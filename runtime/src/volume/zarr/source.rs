@@ -32,11 +32,22 @@ pub struct ZarrVolume {
     prefix: Vec<u64>,
     dims: [usize; 3],
     spacing: [f64; 3],
+    unit: Option<String>,
     ty: ZarrType,
     lattice: Lattice,
     member: Membership,
     range: OnceLock<(f32, f32)>,
     identity: Option<String>,
+    /// A store of lattice samples: how to find a lattice point's coset.
+    cosets: Option<CosetIndex>,
+}
+
+/// Where a lattice store keeps each lattice point: channel `table[j mod
+/// period]` at index j / period (`cosets.rs`).
+struct CosetIndex {
+    period: [usize; 3],
+    table: Vec<Option<usize>>,
+    count: usize,
 }
 
 impl ZarrVolume {
@@ -54,6 +65,16 @@ impl ZarrVolume {
     ) -> Result<ZarrVolume, VolumeError> {
         image.check(s)?;
         let level = &image.levels()[s.level];
+        let (mut dims, mut spacing, mut cosets) = (level.dims, level.spacing, None);
+        if let Some(l) = image.layout() {
+            if !l.stores(lattice) {
+                let (path, stored, asked) = (image.path().to_path_buf(), l.lattice.clone(), lattice.name.clone());
+                return Err(ZarrError::LatticeStore { path, stored, asked }.into());
+            }
+            dims = l.dims[s.level];
+            spacing = std::array::from_fn(|a| spacing[a] / l.period[a] as f64);
+            cosets = Some(CosetIndex { period: l.period, table: l.channel_table(), count: l.cosets.len() });
+        }
         let erased: Arc<Array<Storage>> = level.array.clone();
         let identity = store_identity(image.path()).map(|id| format!("{id}|{:?}|{}", s, lattice.name));
         Ok(ZarrVolume {
@@ -63,13 +84,15 @@ impl ZarrVolume {
             array: erased,
             cache_bytes,
             prefix: image.prefix(s),
-            dims: level.dims,
-            spacing: level.spacing,
+            dims,
+            spacing,
+            unit: image.metadata().space_unit.clone(),
             ty: level.ty,
             lattice: lattice.clone(),
             member: Membership::new(lattice)?,
             range: OnceLock::new(),
             identity,
+            cosets,
         })
     }
 
@@ -78,18 +101,48 @@ impl ZarrVolume {
         self.spacing
     }
 
+    /// The unit of [`Self::spacing`] the store's space axes give, if any.
+    pub fn space_unit(&self) -> Option<&str> {
+        self.unit.as_deref()
+    }
+
     /// The stored sample type.
     pub fn sample_type(&self) -> ZarrType {
         self.ty
     }
 
-    /// The whole level as a Cartesian volume (the stored values, every
-    /// voxel): for the in-memory renderers. Checks the sample count first.
-    pub fn to_volume(&self) -> Result<Volume, VolumeError> {
+    /// Whether the store holds lattice samples (`convert --lattice`)
+    /// rather than a Cartesian image.
+    pub fn is_lattice_store(&self) -> bool {
+        self.cosets.is_some()
+    }
+
+    /// The whole level as lattice samples: for the in-memory renderers.
+    /// Checks the sample count first.
+    pub fn to_lattice_volume(&self) -> Result<crate::volume::LatticeVolume, VolumeError> {
+        self.check_in_memory()?;
+        let mut data = vec![0f32; self.dims.iter().product()];
+        self.read_box([0, 0, 0], self.dims, &mut data)?;
+        Ok(crate::volume::LatticeVolume { lattice: self.lattice.clone(), dims: self.dims, data })
+    }
+
+    fn check_in_memory(&self) -> Result<(), VolumeError> {
         if crate::limits::check_samples(self.dims, "").is_err() {
             let (path, level) = (self.path.clone(), self.level_path.clone());
             return Err(ZarrError::LevelTooLarge { path, level, dims: self.dims }.into());
         }
+        Ok(())
+    }
+
+    /// The whole level as a Cartesian volume (the stored values, every
+    /// voxel): for the in-memory renderers. Checks the sample count first;
+    /// a store of lattice samples is read with [`Self::to_lattice_volume`].
+    pub fn to_volume(&self) -> Result<Volume, VolumeError> {
+        if self.cosets.is_some() {
+            let (path, stored) = (self.path.clone(), self.lattice.name.clone());
+            return Err(ZarrError::LatticeStore { path, stored, asked: "Cartesian".into() }.into());
+        }
+        self.check_in_memory()?;
         let data = self.read_clamped([0, 0, 0], self.dims.map(|n| n - 1), false)?;
         Volume::new(self.dims, data)
     }
@@ -106,7 +159,12 @@ impl ZarrVolume {
         for a in [2, 1, 0] {
             ranges.push(lo[a] as u64..hi[a] as u64 + 1);
         }
-        let subset = ArraySubset::new_with_ranges(&ranges);
+        self.read_ranges(&ranges, cached)
+    }
+
+    /// The stored samples of an array subset, as f32.
+    fn read_ranges(&self, ranges: &[std::ops::Range<u64>], cached: bool) -> Result<Vec<f32>, VolumeError> {
+        let subset = ArraySubset::new_with_ranges(ranges);
         macro_rules! read {
             ($t:ty) => {{
                 let v: Vec<$t> = if cached {
@@ -132,6 +190,55 @@ impl ZarrVolume {
     }
 }
 
+impl ZarrVolume {
+    /// [`BrickSource::read_box`] of a lattice store: the box's lattice
+    /// points read from their cosets' channels (one read of every channel
+    /// over the coset grid's box), 0 elsewhere.
+    fn read_coset_box(
+        &self,
+        c: &CosetIndex,
+        lo: [i64; 3],
+        size: [usize; 3],
+        out: &mut [f32],
+    ) -> Result<(), VolumeError> {
+        let clamp = |v: i64, n: usize| v.clamp(0, n as i64 - 1) as usize;
+        let p = c.period;
+        let first: [usize; 3] = std::array::from_fn(|a| clamp(lo[a], self.dims[a]) / p[a]);
+        let last: [usize; 3] =
+            std::array::from_fn(|a| clamp(lo[a].saturating_add(size[a] as i64 - 1), self.dims[a]) / p[a]);
+        let mut ranges: Vec<std::ops::Range<u64>> = (c.count > 1).then_some(0..c.count as u64).into_iter().collect();
+        ranges.extend([2, 1, 0].map(|a| first[a] as u64..last[a] as u64 + 1));
+        let data = self.read_ranges(&ranges, true)?;
+        let w: [usize; 3] = std::array::from_fn(|a| last[a] - first[a] + 1);
+        let plane = w[0] * w[1] * w[2];
+        let mut i = 0;
+        for dz in 0..size[2] {
+            let z = clamp(lo[2].saturating_add(dz as i64), self.dims[2]);
+            for dy in 0..size[1] {
+                let y = clamp(lo[1].saturating_add(dy as i64), self.dims[1]);
+                for dx in 0..size[0] {
+                    let x = clamp(lo[0].saturating_add(dx as i64), self.dims[0]);
+                    let j = [x, y, z];
+                    let residue = (x % p[0]) + p[0] * ((y % p[1]) + p[1] * (z % p[2]));
+                    out[i] = match c.table[residue] {
+                        Some(channel) => {
+                            let g: [usize; 3] = std::array::from_fn(|a| j[a] / p[a] - first[a]);
+                            let v = data[channel * plane + g[0] + w[0] * (g[1] + w[1] * g[2])];
+                            if !v.is_finite() {
+                                return Err(self.non_finite(j));
+                            }
+                            v
+                        }
+                        None => 0.0,
+                    };
+                    i += 1;
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
 /// The store's folder, canonical, with its `zarr.json`/`.zattrs`
 /// modification time: a rewritten store reads as a new one.
 fn store_identity(path: &std::path::Path) -> Option<String> {
@@ -154,6 +261,9 @@ impl BrickSource for ZarrVolume {
         check_box_len(size, out.len())?;
         if out.is_empty() {
             return Ok(());
+        }
+        if let Some(c) = &self.cosets {
+            return self.read_coset_box(c, lo, size, out);
         }
         let clamp = |v: i64, n: usize| v.clamp(0, n as i64 - 1) as usize;
         let first: [usize; 3] = std::array::from_fn(|a| clamp(lo[a], self.dims[a]));
@@ -189,6 +299,10 @@ impl BrickSource for ZarrVolume {
     fn sample_range(&self) -> Result<(f32, f32), VolumeError> {
         if let Some(&r) = self.range.get() {
             return Ok(r);
+        }
+        if self.cosets.is_some() {
+            let r = crate::volume::lattice_sources::scan_range(self, &self.member)?;
+            return Ok(*self.range.get_or_init(|| r));
         }
         let rank = self.prefix.len() + 3;
         let origin = vec![0u64; rank];

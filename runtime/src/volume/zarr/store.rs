@@ -2,6 +2,7 @@
 //! each level's array, checked against each other once at open (so a
 //! renderer never meets a level whose shape contradicts its scale).
 
+use super::cosets::LatticeLayout;
 use super::meta::{AxisKind, Multiscale};
 use super::{ZarrError, ZarrType};
 use std::path::{Path, PathBuf};
@@ -61,6 +62,8 @@ pub struct OmeZarr {
     /// Each array axis's length at level 0.
     shape0: Vec<u64>,
     levels: Vec<ZarrLevel>,
+    /// For a store of lattice samples (`convert --lattice`), their layout.
+    layout: Option<LatticeLayout>,
 }
 
 impl OmeZarr {
@@ -114,6 +117,7 @@ impl OmeZarr {
         let group = zarrs::group::Group::open(storage.clone(), "/")
             .map_err(|e| ZarrError::Open { path: path.to_path_buf(), reason: e.to_string() })?;
         let meta = Multiscale::from_attributes(path, group.attributes())?;
+        let layout = LatticeLayout::from_attributes(path, group.attributes())?;
         let rank = meta.axes.len();
         let mut levels = Vec::with_capacity(meta.levels.len());
         let mut shape0 = Vec::new();
@@ -147,10 +151,13 @@ impl OmeZarr {
                     shape: zyx,
                 });
             }
+            if let Some(l) = &layout {
+                check_lattice_level(path, &meta, l, i, &shape)?;
+            } else if i > 0 {
+                check_level_shape(path, &meta, i, zyx, &shape0)?;
+            }
             if i == 0 {
                 shape0 = shape.clone();
-            } else {
-                check_level_shape(path, &meta, i, zyx, &shape0)?;
             }
             let s = level.scale_zyx;
             levels.push(ZarrLevel {
@@ -161,7 +168,12 @@ impl OmeZarr {
                 ty,
             });
         }
-        Ok(OmeZarr { path: path.to_path_buf(), meta, shape0, levels })
+        if let Some(l) = layout.as_ref().filter(|l| l.dims.len() != levels.len()) {
+            let what =
+                format!("its boxforge attribute lists {} levels and the multiscales {}", l.dims.len(), levels.len());
+            return Err(ZarrError::LatticeLayout { path: path.to_path_buf(), cosets: l.cosets.len(), what });
+        }
+        Ok(OmeZarr { path: path.to_path_buf(), meta, shape0, levels, layout })
     }
 
     /// The store's folder.
@@ -179,8 +191,18 @@ impl OmeZarr {
         &self.levels
     }
 
-    /// Channels (1 without a channel axis).
+    /// For a store of lattice samples (`boxforge convert --lattice`), how
+    /// they are laid out: its channels are the lattice's cosets.
+    pub fn layout(&self) -> Option<&LatticeLayout> {
+        self.layout.as_ref()
+    }
+
+    /// Channels (1 without a channel axis, and for a store of lattice
+    /// samples, whose channel axis holds the cosets).
     pub fn channels(&self) -> usize {
+        if self.layout.is_some() {
+            return 1;
+        }
         self.count_of(AxisKind::Channel)
     }
 
@@ -213,6 +235,7 @@ impl OmeZarr {
             .axes
             .iter()
             .filter_map(|k| match k {
+                AxisKind::Channel if self.layout.is_some() => None,
                 AxisKind::Channel => Some(s.channel as u64),
                 AxisKind::Time => Some(s.time as u64),
                 AxisKind::Space => None,
@@ -236,6 +259,37 @@ fn check_level_shape(path: &Path, meta: &Multiscale, i: usize, zyx: [u64; 3], sh
             shape: zyx,
             expected,
         });
+    }
+    Ok(())
+}
+
+/// A lattice store's level `i`: axes (c, z, y, x) with one channel per
+/// coset (or (z, y, x) for one), and the cosets' grid of the level's
+/// lattice box as its shape, exactly.
+fn check_lattice_level(
+    path: &Path,
+    meta: &Multiscale,
+    l: &LatticeLayout,
+    i: usize,
+    shape: &[u64],
+) -> Result<(), ZarrError> {
+    let fail = |what: String| ZarrError::LatticeLayout { path: path.to_path_buf(), cosets: l.cosets.len(), what };
+    let lead: Vec<AxisKind> = if l.cosets.len() > 1 { vec![AxisKind::Channel] } else { vec![] };
+    let axes = [lead, vec![AxisKind::Space; 3]].concat();
+    if meta.axes != axes {
+        return Err(fail(format!("its axes are {:?}", meta.axis_names)));
+    }
+    let Some(&dims) = l.dims.get(i) else {
+        return Err(fail(format!("its boxforge attribute has no level {i}")));
+    };
+    let grid = l.coset_shape(dims);
+    let lead: Vec<u64> = if l.cosets.len() > 1 { vec![l.cosets.len() as u64] } else { vec![] };
+    let expected = [lead, vec![grid[2] as u64, grid[1] as u64, grid[0] as u64]].concat();
+    if shape != expected.as_slice() {
+        return Err(fail(format!(
+            "level '{}' has shape {shape:?} where a lattice box of {dims:?} (x, y, z) calls for {expected:?}",
+            meta.levels[i].path
+        )));
     }
     Ok(())
 }

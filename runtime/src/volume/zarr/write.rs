@@ -81,6 +81,9 @@ pub struct PyramidOptions {
     pub ty: ZarrType,
     /// Physical voxel size of level 0 along (x, y, z).
     pub spacing: [f64; 3],
+    /// The unit of `spacing` (a UDUNITS name: `millimeter`, `micrometer`,
+    /// ...), written on the space axes; none: unitless.
+    pub unit: Option<String>,
     /// zstd level of the chunks.
     pub zstd_level: i32,
 }
@@ -94,6 +97,7 @@ impl Default for PyramidOptions {
             reduction: Reduction::Box,
             ty: ZarrType::F32,
             spacing: [1.0; 3],
+            unit: None,
             zstd_level: 3,
         }
     }
@@ -142,7 +146,7 @@ pub fn write_pyramid(
     let mut done = 0u64;
     let mut previous: Option<Array<FilesystemStore>> = None;
     for (k, &d) in dims.iter().enumerate() {
-        let array = create_array(&store, k, d, o).map_err(|e| werr(&e))?;
+        let array = create_array(&store, k, d, None, o).map_err(|e| werr(&e))?;
         for lo in unit_boxes(d, unit) {
             let hi: [usize; 3] = std::array::from_fn(|a| (lo[a] + unit).min(d[a]) - 1);
             let values = match &previous {
@@ -169,7 +173,7 @@ pub fn write_pyramid(
     Ok(PyramidReport { levels: dims })
 }
 
-fn check_options(o: &PyramidOptions) -> Result<(), ZarrError> {
+pub(super) fn check_options(o: &PyramidOptions) -> Result<(), ZarrError> {
     if o.chunk == 0 || o.chunk > 1024 {
         return Err(ZarrError::Option {
             option: "chunk",
@@ -197,19 +201,24 @@ fn check_options(o: &PyramidOptions) -> Result<(), ZarrError> {
 }
 
 /// The low corners of the write units covering `dims`, z slowest.
-fn unit_boxes(dims: [usize; 3], unit: usize) -> impl Iterator<Item = [usize; 3]> {
+pub(super) fn unit_boxes(dims: [usize; 3], unit: usize) -> impl Iterator<Item = [usize; 3]> {
     (0..dims[2]).step_by(unit).flat_map(move |z| {
         (0..dims[1]).step_by(unit).flat_map(move |y| (0..dims[0]).step_by(unit).map(move |x| [x, y, z]))
     })
 }
 
-fn create_array(
+/// Level `level`'s array of `d` (x, y, z) samples, with a leading channel
+/// axis of `channels` (a lattice store's cosets, each chunk holding all of
+/// them) when given.
+pub(super) fn create_array(
     store: &Arc<FilesystemStore>,
     level: usize,
     d: [usize; 3],
+    channels: Option<usize>,
     o: &PyramidOptions,
 ) -> Result<Array<FilesystemStore>, Box<dyn std::error::Error>> {
-    let shape = vec![d[2] as u64, d[1] as u64, d[0] as u64];
+    let lead: Vec<u64> = channels.map(|c| c as u64).into_iter().collect();
+    let shape = [lead.clone(), vec![d[2] as u64, d[1] as u64, d[0] as u64]].concat();
     let chunk = o.chunk as u64;
     // A level smaller than a shard gets one shard of whole chunks.
     let largest = d.iter().copied().max().unwrap_or(1) as u64;
@@ -228,20 +237,26 @@ fn create_array(
         ZarrType::I16 => 0i16.into(),
         ZarrType::F32 => 0f32.into(),
     };
+    let edges = |e: u64| [lead.clone(), vec![e; 3]].concat();
     let mut b = if o.shard.is_some() {
-        let mut b = ArrayBuilder::new(shape, vec![unit; 3], data_type, fill);
-        b.subchunk_shape(vec![chunk; 3]);
+        let mut b = ArrayBuilder::new(shape, edges(unit), data_type, fill);
+        b.subchunk_shape(edges(chunk));
         b
     } else {
-        ArrayBuilder::new(shape, vec![chunk; 3], data_type, fill)
+        ArrayBuilder::new(shape, edges(chunk), data_type, fill)
     };
-    b.bytes_to_bytes_codecs(vec![zstd]).dimension_names(Some(["z", "y", "x"]));
+    b.bytes_to_bytes_codecs(vec![zstd]);
+    if channels.is_some() {
+        b.dimension_names(Some(["c", "z", "y", "x"]));
+    } else {
+        b.dimension_names(Some(["z", "y", "x"]));
+    }
     let array = b.build(store.clone(), &format!("/{level}"))?;
     array.store_metadata()?;
     Ok(array)
 }
 
-fn store_values(
+pub(super) fn store_values(
     array: &Array<FilesystemStore>,
     subset: &ArraySubset,
     v: &[f32],
@@ -400,7 +415,7 @@ fn write_group(
             serde_json::json!({"path": k.to_string(), "coordinateTransformations": transforms})
         })
         .collect();
-    let axis = |name: &str| serde_json::json!({"name": name, "type": "space"});
+    let axis = |name: &str| space_axis(name, o);
     let ome = serde_json::json!({
         "version": "0.5",
         "multiscales": [{
@@ -415,6 +430,14 @@ fn write_group(
     group.attributes_mut().insert("ome".into(), ome);
     group.store_metadata()?;
     Ok(())
+}
+
+/// A space axis of the multiscales metadata, with the options' unit.
+pub(super) fn space_axis(name: &str, o: &PyramidOptions) -> serde_json::Value {
+    match &o.unit {
+        Some(unit) => serde_json::json!({"name": name, "type": "space", "unit": unit}),
+        None => serde_json::json!({"name": name, "type": "space"}),
+    }
 }
 
 fn reduction_doc(r: Reduction) -> &'static str {
