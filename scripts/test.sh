@@ -2,7 +2,8 @@
 # The whole test suite: formatting, packaging, clippy and rustdoc without
 # warnings, every crate with no default features and with each feature
 # alone, unit tests, integration tests, property tests, CLI tests, the
-# browser test, and examples/embed as a package of its own. Prints the time
+# browser test, the Python package's tests (pytest, with Dask), and
+# examples/embed as a package of its own. Prints the time
 # of each phase.
 #
 #   scripts/test.sh           the whole suite (what CI runs)
@@ -51,7 +52,11 @@ fi
 # runtime would get the CLI's features through feature unification.
 # The Python peers the OME-Zarr tests check against (ome-zarr-models, zarr), made once.
 phase "zarr peers (venv)" scripts/zarr-peers/ensure-venv.sh >/dev/null
+# The venv the Python package is tested in (maturin, numpy, dask, distributed, pytest), made once.
+phase "python (venv)" scripts/python/ensure-venv.sh >/dev/null
 phase "tests (build)" cargo test --workspace --exclude boxforge-embed --locked --no-run
 phase tests scripts/run-tests.py --workspace --exclude boxforge-embed
+# The Python package (python/): the extension the build above made, under pytest.
+phase python scripts/python/test.sh
 phase "embed (own package)" cargo test --locked -p boxforge-embed
 echo "== all passed in $((SECONDS - start)) s" >&2

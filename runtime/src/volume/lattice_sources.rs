@@ -80,6 +80,74 @@ pub(super) fn scan_range(source: &dyn BrickSource, member: &Membership) -> Resul
     Ok(if lo <= hi { (lo, hi) } else { (0.0, 0.0) })
 }
 
+/// A box of samples in memory standing for a larger volume: the samples
+/// at [origin, origin + size) of a volume of `dims` on `lattice` (x
+/// fastest), read clamped into the volume and then into the box. A chunk
+/// with its halo passed in by a scheduler (Dask) reads as the whole volume
+/// does wherever the halo covers the taps, so [`Resampled`] and
+/// [`Prefiltered`] over it give the whole volume's values inside the
+/// chunk; outside what the halo covers the values are not the volume's.
+pub struct Window<'a> {
+    data: &'a [f32],
+    origin: [usize; 3],
+    size: [usize; 3],
+    dims: [usize; 3],
+    lattice: Lattice,
+}
+
+impl<'a> Window<'a> {
+    /// `data` (x fastest, `size` samples) at `origin` of a volume of `dims`.
+    pub fn new(
+        data: &'a [f32],
+        origin: [usize; 3],
+        size: [usize; 3],
+        dims: [usize; 3],
+        lattice: &Lattice,
+    ) -> Result<Window<'a>, VolumeError> {
+        check_box_len(size, data.len())?;
+        super::error::checked_count(dims)?;
+        if size.contains(&0) || (0..3).any(|a| origin[a].saturating_add(size[a]) > dims[a]) {
+            return Err(VolumeError::BadDims {
+                dims: size,
+                reason: format!("a box of these dims at {origin:?} (x, y, z) does not fit in a volume of {dims:?}"),
+            });
+        }
+        Ok(Window { data, origin, size, dims, lattice: lattice.clone() })
+    }
+}
+
+impl BrickSource for Window<'_> {
+    fn dims(&self) -> [usize; 3] {
+        self.dims
+    }
+
+    fn lattice(&self) -> &Lattice {
+        &self.lattice
+    }
+
+    fn read_box(&self, lo: [i64; 3], size: [usize; 3], out: &mut [f32]) -> Result<(), VolumeError> {
+        check_box_len(size, out.len())?;
+        if out.is_empty() {
+            return Ok(());
+        }
+        let (o, s) = (self.origin, self.size);
+        for_each_clamped(lo, size, self.dims, |i, j| {
+            let q: [usize; 3] = std::array::from_fn(|a| j[a].clamp(o[a], o[a] + s[a] - 1) - o[a]);
+            out[i] = self.data[q[0] + s[0] * (q[1] + s[1] * q[2])];
+        });
+        Ok(())
+    }
+
+    fn sample_range(&self) -> Result<(f32, f32), VolumeError> {
+        let member = Membership::new(&self.lattice)?;
+        scan_range(self, &member)
+    }
+
+    fn resident_bytes(&self) -> usize {
+        0
+    }
+}
+
 /// A Cartesian source resampled on `lattice` at a matched sample count
 /// ([`matched_lattice`]), by trilinear interpolation clamped to the
 /// Cartesian grid: the values [`LatticeVolume::resample`] gives for the
@@ -313,6 +381,39 @@ mod tests {
         // A lattice source is not resampled again.
         let bcc = LatticeVolume::subset(&lattice("bcc"), &vol).unwrap();
         assert!(Resampled::new(&bcc, &lattice("fcc")).is_err());
+    }
+
+    #[test]
+    fn a_chunk_with_its_halo_prefilters_and_resamples_as_the_whole_volume_inside_it() {
+        let d = Derivation::new(&boxforge::spec::resolve("bcc7").unwrap()).unwrap();
+        let vol = test_volume([11, 10, 9]);
+        let cart = LatticeVolume::subset(&lattice("cc"), &vol).unwrap();
+        let l = lattice("bcc");
+        let whole = Resampled::new(&cart, &l).unwrap();
+        let n = whole.dims();
+        let mut all = vec![0f32; n.iter().product()];
+        whole.read_box([0, 0, 0], n, &mut all).unwrap();
+        let lat = LatticeVolume { lattice: l.clone(), dims: n, data: all.clone() };
+        let pre = crate::prefilter::prefilter_cpu(&d, &lat);
+        // An odd chunk at an odd origin, with a halo of 2 (bcc7's taps reach 2).
+        let (lo, size, halo) = ([3usize, 5, 1], [5usize, 4, 7], 2usize);
+        let h0: [usize; 3] = std::array::from_fn(|a| lo[a].saturating_sub(halo));
+        let h1: [usize; 3] = std::array::from_fn(|a| (lo[a] + size[a] + halo).min(n[a]));
+        let hs: [usize; 3] = std::array::from_fn(|a| h1[a] - h0[a]);
+        let mut block = vec![0f32; hs.iter().product()];
+        lat.read_box(h0.map(|x| x as i64), hs, &mut block).unwrap();
+        let w = Window::new(&block, h0, hs, n, &l).unwrap();
+        let p = Prefiltered::new(&w, &d).unwrap();
+        let mut got = vec![0f32; size.iter().product()];
+        p.read_box(lo.map(|x| x as i64), size, &mut got).unwrap();
+        let mut want = vec![0f32; got.len()];
+        pre.read_box(lo.map(|x| x as i64), size, &mut want).unwrap();
+        assert_eq!(bits(&got), bits(&want));
+        assert!(Window::new(&block, [9, 9, 9], hs, n, &l).is_err(), "a box past the volume");
+    }
+
+    fn bits(v: &[f32]) -> Vec<u32> {
+        v.iter().map(|x| x.to_bits()).collect()
     }
 
     #[test]

@@ -53,7 +53,7 @@ pub use format::SampleFormat;
 pub use four::{DeviceVolume4, LatticeVolume4};
 #[cfg(feature = "files")]
 pub use gz_cache::default_cache_dir;
-pub use lattice_sources::{matched_lattice, Prefiltered, Resampled};
+pub use lattice_sources::{matched_lattice, Prefiltered, Resampled, Window};
 pub use packing::PackedVolume;
 pub use raw::{parse_raw_spec, RawType};
 pub use series::{marschner_lobb_drift, ml_drift_frequency, VolumeSeries};

@@ -1,0 +1,178 @@
+"""boxforge from Python: box-spline filters on Cartesian, BCC and FCC lattices.
+
+The heavy work runs in Rust (the same code as the ``boxforge`` command line,
+not a second implementation), with the GIL released.
+
+Arrays are NumPy ``float32`` volumes in ``(z, y, x)`` order (x varies
+fastest, as NumPy's C order and the OME-Zarr axis order have it). Samples on
+a BCC or FCC lattice are held in the *embedded* layout: an array over the
+lattice's bounding box whose entries at non-lattice points are 0 (what
+:func:`resample` returns and :func:`open` gives for a lattice store).
+
+Specs are a catalog name (``"bcc7"``), a spec file's path, a spec's TOML
+text, or a dict of the spec's fields (see ``docs/BOX_SPLINES.md``).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from typing import Any, Mapping, NamedTuple, Optional, Tuple, Union
+
+import numpy as np
+
+from . import _boxforge
+
+__version__ = _boxforge.__version__
+
+Spec = Union[str, "os.PathLike[str]", Mapping[str, Any]]
+
+__all__ = [
+    "Store",
+    "inspect",
+    "lattice_of",
+    "matched_lattice",
+    "open",
+    "prefilter",
+    "resample",
+    "shader",
+    "to_ome_zarr",
+]
+
+
+def _toml_value(v: Any) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, (int, float)):
+        return repr(v)
+    if isinstance(v, str):
+        return json.dumps(v)
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    raise ValueError(f"spec value {v!r}: give numbers, strings, booleans or lists of them")
+
+
+def _spec_text(spec: Spec) -> str:
+    """A spec as the extension takes it: a name, a path, or TOML text."""
+    if isinstance(spec, Mapping):
+        lines, tables = [], []
+        for k, v in spec.items():
+            if isinstance(v, Mapping):
+                tables.append(f"[{k}]\n" + "".join(f"{kk} = {_toml_value(vv)}\n" for kk, vv in v.items()))
+            else:
+                lines.append(f"{k} = {_toml_value(v)}\n")
+        return "".join(lines) + "".join(tables)
+    if isinstance(spec, os.PathLike):
+        return os.fspath(spec)
+    if isinstance(spec, str):
+        return spec
+    raise ValueError(f"spec {spec!r}: give a catalog name, a spec file's path, TOML text or a dict")
+
+
+def _volume(a: Any, what: str) -> np.ndarray:
+    """``a`` as a C-contiguous float32 3D array (a copy only when needed)."""
+    arr = np.asarray(a)
+    if arr.ndim != 3:
+        raise ValueError(f"{what}: expected a 3D array (z, y, x), got shape {arr.shape}")
+    if 0 in arr.shape:
+        raise ValueError(f"{what}: the array has an empty axis, shape {arr.shape}")
+    if not (np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)):
+        raise ValueError(f"{what}: expected real samples, got dtype {arr.dtype}")
+    return np.ascontiguousarray(arr, dtype=np.float32)
+
+
+def _zyx(t: Any, what: str) -> Tuple[int, int, int]:
+    try:
+        z, y, x = (int(v) for v in t)
+    except Exception:
+        raise ValueError(f"{what}: expected three whole numbers (z, y, x), got {t!r}") from None
+    if min(z, y, x) < 0:
+        raise ValueError(f"{what}: expected non-negative (z, y, x), got {t!r}")
+    return (z, y, x)
+
+
+def inspect(spec: Spec) -> dict:
+    """The derivation report of a spec (what ``boxforge inspect --json`` prints) as a dict."""
+    return json.loads(_boxforge.report_json(_spec_text(spec)))
+
+
+def shader(spec: Spec, target: str = "wgsl", layout: str = "embedded") -> Tuple[str, list]:
+    """The spec's shader module and its bindings (a list of dicts: group, binding, name, kind, ...).
+
+    ``target`` is ``"wgsl"``; the other languages come from ``boxforge generate --target``.
+    """
+    if target != "wgsl":
+        raise ValueError(f"target {target!r}: the Python package emits WGSL; for SPIR-V, GLSL, HLSL or MSL "
+                         "run boxforge generate --target")
+    source, bindings = _boxforge.shader(_spec_text(spec), layout)
+    return source, json.loads(bindings)
+
+
+def lattice_of(spec: Spec) -> str:
+    """The name of the lattice the spec's filter is defined on (``"bcc"``, ``"fcc"``, ``"cc"``, ...)."""
+    return _boxforge.lattice_of(_spec_text(spec))
+
+
+def matched_lattice(lattice: str, shape: Tuple[int, int, int]) -> Tuple[Tuple[int, int, int], float]:
+    """The lattice box (z, y, x) a Cartesian volume of ``shape`` is resampled on at a matched
+    sample count, and the scale (Cartesian voxels per lattice unit)."""
+    return _boxforge.matched_lattice(lattice, _zyx(shape, "shape"))
+
+
+def resample(volume: Any, lattice: str) -> np.ndarray:
+    """A Cartesian volume resampled on ``lattice`` (``"bcc"``, ``"fcc"``) at a matched sample count
+    (trilinear, as ``boxforge render --resample`` and ``convert --lattice`` do): the embedded
+    lattice volume, 0 off the lattice."""
+    return _boxforge.resample(_volume(volume, "resample"), lattice)
+
+
+def prefilter(samples: Any, spec: Spec) -> np.ndarray:
+    """Lattice samples (embedded layout, on the spec's lattice) prefiltered for the spec's filter:
+    its spline coefficients (quasi-interpolation), as ``convert --prefilter`` stores them."""
+    return _boxforge.prefilter(_volume(samples, "prefilter"), _spec_text(spec))
+
+
+class Store(NamedTuple):
+    """One level of an OME-Zarr store, read whole."""
+
+    #: The samples (z, y, x): the image, or for a lattice store its embedded lattice volume.
+    samples: np.ndarray
+    #: The lattice the samples are on (``"cc"`` for an image).
+    lattice: str
+    #: The voxel size (z, y, x) of the samples' grid, in ``unit``.
+    spacing: Tuple[float, float, float]
+    #: The space unit the store names, if any (``"millimeter"``, ...).
+    unit: Optional[str]
+    #: The filter the samples were prefiltered for, if any (they are its spline coefficients).
+    prefilter: Optional[str]
+
+
+def open(store: Union[str, "os.PathLike[str]"], level: int = 0, channel: int = 0, time: int = 0) -> Store:
+    """Reads a level of an OME-Zarr image (0.4 or 0.5; a folder or an ``http://`` URL), or of a
+    store of lattice samples written by :func:`to_ome_zarr` or ``boxforge convert --lattice``."""
+    samples, lattice, spacing, unit, pre = _boxforge.open_level(os.fspath(store), level, channel, time)
+    return Store(samples, lattice, spacing, unit, pre)
+
+
+def to_ome_zarr(
+    volume: Any,
+    store: Union[str, "os.PathLike[str]"],
+    lattice: Optional[str] = None,
+    prefilter: Optional[Spec] = None,
+    chunk: int = 64,
+    shard: Optional[int] = None,
+    levels: Optional[int] = None,
+    reduction: str = "box",
+    dtype: Optional[str] = None,
+    spacing: Tuple[float, float, float] = (1.0, 1.0, 1.0),
+    unit: Optional[str] = None,
+) -> list:
+    """Writes a Cartesian volume (z, y, x) as an OME-Zarr 0.5 pyramid at ``store`` (a new or empty
+    folder), as ``boxforge convert`` does: of its samples, or with ``lattice`` / ``prefilter`` of
+    lattice samples stored as their Cartesian cosets (docs/OME_ZARR.md). Returns each level's
+    shape (z, y, x): the image's, or the lattice box's."""
+    pre = None if prefilter is None else _spec_text(prefilter)
+    return _boxforge.write_store(
+        _volume(volume, "to_ome_zarr"), os.fspath(store), lattice, pre, chunk, shard, levels, reduction, dtype,
+        tuple(float(s) for s in spacing), unit,
+    )

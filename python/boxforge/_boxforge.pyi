@@ -1,0 +1,43 @@
+"""The extension module (Rust, PyO3); use the functions of ``boxforge`` instead."""
+
+from typing import List, Optional, Tuple
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+
+ZYX = Tuple[int, int, int]
+
+def report_json(spec: str) -> str: ...
+def shader(spec: str, layout: str = "embedded") -> Tuple[str, str]: ...
+def lattice_of(spec: str) -> str: ...
+def matched_lattice(lattice: str, shape: ZYX) -> Tuple[ZYX, float]: ...
+def resample(
+    a: npt.NDArray[np.float32],
+    lattice: str,
+    origin: ZYX = (0, 0, 0),
+    shape: Optional[ZYX] = None,
+    out_origin: ZYX = (0, 0, 0),
+    out_shape: Optional[ZYX] = None,
+) -> npt.NDArray[np.float32]: ...
+def prefilter(
+    a: npt.NDArray[np.float32], spec: str, origin: ZYX = (0, 0, 0), shape: Optional[ZYX] = None
+) -> npt.NDArray[np.float32]: ...
+def prefilter_reach(spec: str) -> ZYX: ...
+def open_level(
+    path: str, level: int = 0, channel: int = 0, time: int = 0
+) -> Tuple[npt.NDArray[np.float32], str, Tuple[float, float, float], Optional[str], Optional[str]]: ...
+def write_store(
+    a: npt.NDArray[np.float32],
+    path: str,
+    lattice: Optional[str] = None,
+    prefilter: Optional[str] = None,
+    chunk: int = 64,
+    shard: Optional[int] = None,
+    levels: Optional[int] = None,
+    reduction: str = "box",
+    dtype: Optional[str] = None,
+    spacing: Tuple[float, float, float] = (1.0, 1.0, 1.0),
+    unit: Optional[str] = None,
+) -> List[ZYX]: ...

@@ -1,0 +1,6 @@
+from typing import Any, Optional
+
+import dask.array as da
+
+def prefilter(samples: da.Array, spec: Any) -> da.Array: ...
+def resample(volume: da.Array, lattice: str, chunks: Optional[Any] = None) -> da.Array: ...

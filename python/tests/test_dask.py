@@ -1,0 +1,101 @@
+"""boxforge.dask: the passes chunk by chunk with their halos equal the
+whole-volume passes bit for bit, seams included, on odd chunkings; and on a
+Dask cluster of separate processes (a `dask scheduler` and two `dask worker`
+processes on 127.0.0.1) they equal what `boxforge convert --lattice bcc
+--prefilter bcc7` stores."""
+
+import os
+import socket
+import subprocess
+import sys
+import time
+
+import dask.array as da
+import numpy as np
+import pytest
+
+import boxforge
+import boxforge.dask as bd
+from conftest import smooth_volume
+
+
+@pytest.mark.parametrize("chunks", [(5, 4, 3), (13, 1, 7), (4, 3, 5)])
+def test_prefilter_and_resample_by_chunks_equal_the_whole(volume, chunks):
+    x = da.from_array(volume, chunks=chunks)
+    for lattice, spec in [("bcc", "bcc7"), ("fcc", "fcc6")]:
+        whole = boxforge.resample(volume, lattice)
+        lazy = bd.resample(x, lattice)
+        assert lazy.shape == whole.shape
+        got = lazy.compute(scheduler="threads")
+        assert np.array_equal(got, whole), f"{lattice} resampling, chunks {chunks}"
+        pre = bd.prefilter(da.from_array(whole, chunks=chunks), spec).compute(scheduler="threads")
+        assert np.array_equal(pre, boxforge.prefilter(whole, spec)), f"{spec} prefilter, chunks {chunks}"
+    # The grid is kept: the cc prefilter by map_overlap.
+    cc = bd.prefilter(x, "cc_tricubic").compute(scheduler="threads")
+    assert np.array_equal(cc, boxforge.prefilter(volume, "cc_tricubic"))
+
+
+def test_a_chunk_thinner_than_the_halo_is_merged_not_wrong(volume):
+    x = da.from_array(volume, chunks=((1,) * volume.shape[0], 11, 9))
+    assert np.array_equal(bd.prefilter(x, "cc_tricubic").compute(scheduler="threads"),
+                          boxforge.prefilter(volume, "cc_tricubic"))
+
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture
+def cluster(tmp_path):
+    """A scheduler and two single-threaded workers, each its own process."""
+    port = free_port()
+    bin_dir = os.path.dirname(sys.executable)
+    address = f"tcp://127.0.0.1:{port}"
+    env = dict(os.environ, DASK_DISTRIBUTED__WORKER__DAEMON="False")
+    procs = [subprocess.Popen([os.path.join(bin_dir, "dask"), "scheduler", "--host", "127.0.0.1", "--port", str(port),
+                               "--no-dashboard"], env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)]
+    for i in range(2):
+        procs.append(subprocess.Popen([os.path.join(bin_dir, "dask"), "worker", address, "--nthreads", "1",
+                                       "--nworkers", "1", "--no-dashboard", "--name", f"w{i}",
+                                       "--local-directory", str(tmp_path / f"w{i}")],
+                                      env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+    from distributed import Client
+
+    client = None
+    try:
+        client = Client(address, timeout=60)
+        client.wait_for_workers(2, timeout=120)
+        yield client
+    finally:
+        if client is not None:
+            client.shutdown()  # stops the scheduler and the workers
+            client.close()
+        for p in procs:
+            p.terminate()
+        for p in procs:
+            try:
+                p.wait(timeout=20)
+            except subprocess.TimeoutExpired:
+                p.kill()
+
+
+def test_two_worker_processes_compute_what_convert_stores(cluster, tmp_path, cli):
+    volume = smooth_volume((64, 64, 64), seed=3)
+    x = da.from_array(volume, chunks=(13, 17, 11))
+    coefficients = bd.prefilter(bd.resample(x, "bcc"), "bcc7")
+    got = cluster.compute(coefficients).result()
+    workers = {w for w, tasks in cluster.has_what().items()}
+    assert len(workers) == 2
+    # Both workers did some of the work (tasks spread over processes, not threads of one).
+    processed = cluster.run(lambda dask_worker: len(dask_worker.data) + len(dask_worker.state.log))
+    assert len(processed) == 2 and all(n > 0 for n in processed.values()), processed
+    raw = tmp_path / "v.raw"
+    volume.tofile(raw)
+    cli("convert", raw, tmp_path / "cli.zarr", "--raw", "64,64,64,f32", "--lattice", "bcc", "--prefilter", "bcc7",
+        "--levels", "1", "--chunk", "32")
+    stored = boxforge.open(tmp_path / "cli.zarr")
+    assert (stored.lattice, stored.prefilter) == ("bcc", "bcc7")
+    assert got.shape == stored.samples.shape
+    assert np.array_equal(got, stored.samples), "the cluster's coefficients differ from convert's"
