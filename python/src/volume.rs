@@ -27,6 +27,17 @@ pub(crate) fn lattice_named(name: &str) -> PyResult<Lattice> {
     Lattice::builtin(name).map_err(|e| PyValueError::new_err(format!("lattice {name:?}: {e}")))
 }
 
+/// Where a box of `size` (x, y, z) sits: its origin, and the dims of the
+/// volume it stands for (by default, just reaching its far corner).
+fn placed(
+    origin: (usize, usize, usize),
+    shape: Option<(usize, usize, usize)>,
+    size: [usize; 3],
+) -> ([usize; 3], [usize; 3]) {
+    let o = xyz(origin);
+    (o, shape.map(xyz).unwrap_or(std::array::from_fn(|i| o[i] + size[i])))
+}
+
 /// The samples of a C-contiguous float32 array, with its (x, y, z) size.
 fn samples<'a>(a: &'a PyReadonlyArray3<'_, f32>, what: &str) -> PyResult<(&'a [f32], [usize; 3])> {
     let s = a.shape();
@@ -65,8 +76,7 @@ pub(crate) fn resample<'py>(
     let l = lattice_named(lattice)?;
     let cc = lattice_named("cc")?;
     let (data, size) = samples(&a, "resample")?;
-    let o = xyz(origin);
-    let dims = shape.map(xyz).unwrap_or(std::array::from_fn(|i| o[i] + size[i]));
+    let (o, dims) = placed(origin, shape, size);
     let out = py.detach(|| -> Result<_, boxforge_runtime::volume::VolumeError> {
         let window = Window::new(data, o, size, dims, &cc)?;
         let r = Resampled::new(&window, &l)?;
@@ -104,8 +114,7 @@ pub(crate) fn prefilter<'py>(
         return Err(PyValueError::new_err(format!("{}: a volume is prefiltered with a 3D filter", d.filter.name)));
     }
     let (data, size) = samples(&a, "prefilter")?;
-    let o = xyz(origin);
-    let dims = shape.map(xyz).unwrap_or(std::array::from_fn(|i| o[i] + size[i]));
+    let (o, dims) = placed(origin, shape, size);
     let v = py
         .detach(|| -> Result<_, boxforge_runtime::volume::VolumeError> {
             let window = Window::new(data, o, size, dims, &d.filter.lattice)?;

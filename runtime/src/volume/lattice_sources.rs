@@ -80,6 +80,19 @@ pub(super) fn scan_range(source: &dyn BrickSource, member: &Membership) -> Resul
     Ok(if lo <= hi { (lo, hi) } else { (0.0, 0.0) })
 }
 
+/// [`scan_range`] once, the answer kept in `memo`.
+pub(super) fn remembered_range(
+    memo: &OnceLock<(f32, f32)>,
+    source: &dyn BrickSource,
+    member: &Membership,
+) -> Result<(f32, f32), VolumeError> {
+    if let Some(&r) = memo.get() {
+        return Ok(r);
+    }
+    let r = scan_range(source, member)?;
+    Ok(*memo.get_or_init(|| r))
+}
+
 /// A box of samples in memory standing for a larger volume: the samples
 /// at [origin, origin + size) of a volume of `dims` on `lattice` (x
 /// fastest), read clamped into the volume and then into the box. A chunk
@@ -249,11 +262,7 @@ impl BrickSource for Resampled<'_> {
     }
 
     fn sample_range(&self) -> Result<(f32, f32), VolumeError> {
-        if let Some(&r) = self.range.get() {
-            return Ok(r);
-        }
-        let r = scan_range(self, &self.member)?;
-        Ok(*self.range.get_or_init(|| r))
+        remembered_range(&self.range, self, &self.member)
     }
 
     fn resident_bytes(&self) -> usize {
@@ -327,11 +336,7 @@ impl BrickSource for Prefiltered<'_> {
     }
 
     fn sample_range(&self) -> Result<(f32, f32), VolumeError> {
-        if let Some(&r) = self.range.get() {
-            return Ok(r);
-        }
-        let r = scan_range(self, &self.member)?;
-        Ok(*self.range.get_or_init(|| r))
+        remembered_range(&self.range, self, &self.member)
     }
 
     fn resident_bytes(&self) -> usize {

@@ -36,3 +36,17 @@ pub fn sparse_balls(n: usize) -> boxforge_runtime::volume::Volume {
     }
     boxforge_runtime::volume::Volume::new([n, n, n], data).unwrap()
 }
+
+/// A smooth-plus-ripple test volume (no symmetry a wrong axis order could hide behind).
+pub fn ripple_volume(dims: [usize; 3]) -> boxforge_runtime::volume::Volume {
+    let mut data = Vec::new();
+    for z in 0..dims[2] {
+        for y in 0..dims[1] {
+            for x in 0..dims[0] {
+                let (fx, fy, fz) = (x as f32, y as f32, z as f32);
+                data.push(10.0 + fx + 2.0 * fy - 0.5 * fz + 3.0 * (0.9 * fx + 0.4 * fy * fz).sin());
+            }
+        }
+    }
+    boxforge_runtime::volume::Volume::new(dims, data).unwrap()
+}

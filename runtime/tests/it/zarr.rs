@@ -12,7 +12,7 @@ use boxforge::spec::lattice::Lattice;
 use boxforge_runtime::volume::zarr::{
     write_pyramid, OmeZarr, PyramidOptions, Reduction, Selection, ZarrType, ZarrVolume,
 };
-use boxforge_runtime::volume::{BrickSource, LatticeVolume, Volume};
+use boxforge_runtime::volume::{BrickSource, LatticeVolume};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -111,20 +111,6 @@ fn a_non_cartesian_lattice_reads_the_subset_and_zero_elsewhere() {
     assert_eq!(whole.data[1], formula(1, 0, 0, 0, 0));
 }
 
-/// A smooth-plus-ripple test volume (no symmetry a wrong axis order could hide behind).
-fn test_volume(dims: [usize; 3]) -> Volume {
-    let mut data = Vec::new();
-    for z in 0..dims[2] {
-        for y in 0..dims[1] {
-            for x in 0..dims[0] {
-                let (fx, fy, fz) = (x as f32, y as f32, z as f32);
-                data.push(10.0 + fx + 2.0 * fy - 0.5 * fz + 3.0 * (0.9 * fx + 0.4 * fy * fz).sin());
-            }
-        }
-    }
-    Volume::new(dims, data).unwrap()
-}
-
 fn read_all(v: &ZarrVolume) -> Vec<f32> {
     let d = v.dims();
     let mut out = vec![0f32; d.iter().product()];
@@ -172,7 +158,7 @@ fn binomial_3d(fine: &[f32], n: [usize; 3]) -> (Vec<f64>, [usize; 3]) {
 #[test]
 fn written_pyramids_hold_the_source_and_its_binomial_reduction() {
     let dims = [13, 10, 9];
-    let source = LatticeVolume::subset(&cc(), &test_volume(dims)).unwrap();
+    let source = LatticeVolume::subset(&cc(), &crate::common::ripple_volume(dims)).unwrap();
     for shard in [None, Some(8)] {
         let out = temp(&format!("pyramid-{shard:?}")).join("p.zarr");
         let o = PyramidOptions {
@@ -189,7 +175,7 @@ fn written_pyramids_hold_the_source_and_its_binomial_reduction() {
         let image = OmeZarr::open(&out).unwrap();
         let level = |k| ZarrVolume::new(&image, Selection { level: k, ..Default::default() }, &cc()).unwrap();
         let l0 = read_all(&level(0));
-        assert_eq!(l0, test_volume(dims).data, "level 0 is the source ({shard:?})");
+        assert_eq!(l0, crate::common::ripple_volume(dims).data, "level 0 is the source ({shard:?})");
         assert_eq!(level(2).spacing(), [2.0, 2.0, 6.0]);
         let mut fine = (l0, dims);
         for k in 1..3 {
@@ -208,14 +194,14 @@ fn written_pyramids_hold_the_source_and_its_binomial_reduction() {
 #[test]
 fn box_reduction_averages_blocks_and_integers_round() {
     let dims = [8, 6, 4];
-    let source = LatticeVolume::subset(&cc(), &test_volume(dims)).unwrap();
+    let source = LatticeVolume::subset(&cc(), &crate::common::ripple_volume(dims)).unwrap();
     let out = temp("box").join("b.zarr");
     let o =
         PyramidOptions { chunk: 4, levels: Some(2), reduction: Reduction::Box, ty: ZarrType::U8, ..Default::default() };
     write_pyramid(&source, &out, &o, &|_, _| {}).unwrap();
     let image = OmeZarr::open(&out).unwrap();
     let l0 = read_all(&ZarrVolume::new(&image, Selection::default(), &cc()).unwrap());
-    let src = test_volume(dims).data;
+    let src = crate::common::ripple_volume(dims).data;
     for (g, s) in l0.iter().zip(&src) {
         assert_eq!(*g, s.round().clamp(0.0, 255.0));
     }

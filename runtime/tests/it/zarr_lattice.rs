@@ -15,7 +15,7 @@ use boxforge_runtime::scene::{from_cartesian, Conversion};
 use boxforge_runtime::volume::zarr::{
     write_lattice_pyramid, write_pyramid, LatticeOptions, OmeZarr, PyramidOptions, Selection, ZarrType, ZarrVolume,
 };
-use boxforge_runtime::volume::{BrickSource, LatticeVolume, Volume};
+use boxforge_runtime::volume::{BrickSource, LatticeVolume};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -28,20 +28,6 @@ fn temp(name: &str) -> PathBuf {
 
 fn lattice(name: &str) -> Lattice {
     Lattice::builtin(name).unwrap()
-}
-
-/// A smooth-plus-ripple volume with no symmetry a wrong axis order could hide behind.
-fn test_volume(dims: [usize; 3]) -> Volume {
-    let mut data = Vec::new();
-    for z in 0..dims[2] {
-        for y in 0..dims[1] {
-            for x in 0..dims[0] {
-                let (fx, fy, fz) = (x as f32, y as f32, z as f32);
-                data.push(10.0 + fx + 2.0 * fy - 0.5 * fz + 3.0 * (0.9 * fx + 0.4 * fy * fz).sin());
-            }
-        }
-    }
-    Volume::new(dims, data).unwrap()
 }
 
 fn bits(v: &[f32]) -> Vec<u32> {
@@ -60,7 +46,7 @@ fn peer_python() -> String {
 fn lattice_stores_hold_each_levels_resampled_prefiltered_samples_as_cosets() {
     let python = peer_python();
     let dir = temp("levels");
-    let vol = test_volume([13, 11, 9]);
+    let vol = crate::common::ripple_volume([13, 11, 9]);
     let source = LatticeVolume::subset(&lattice("cc"), &vol).unwrap();
     // The Cartesian levels, as the plain pyramid holds them (float32).
     let o = PyramidOptions { chunk: 4, levels: Some(3), ty: ZarrType::F32, ..PyramidOptions::default() };

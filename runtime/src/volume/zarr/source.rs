@@ -297,12 +297,11 @@ impl BrickSource for ZarrVolume {
     /// One pass over the level in slabs of the array's chunk depth (not
     /// through the cache: the pass would only evict what frames use).
     fn sample_range(&self) -> Result<(f32, f32), VolumeError> {
+        if self.cosets.is_some() {
+            return crate::volume::lattice_sources::remembered_range(&self.range, self, &self.member);
+        }
         if let Some(&r) = self.range.get() {
             return Ok(r);
-        }
-        if self.cosets.is_some() {
-            let r = crate::volume::lattice_sources::scan_range(self, &self.member)?;
-            return Ok(*self.range.get_or_init(|| r));
         }
         let rank = self.prefix.len() + 3;
         let origin = vec![0u64; rank];
