@@ -7,11 +7,13 @@
 //!
 //! `spec.rs`: specs (catalog names, spec files, TOML text) to reports and
 //! shaders; `volume.rs`: resampling and prefiltering of a volume or of a
-//! chunk with its halo; `store.rs`: OME-Zarr stores read and written.
+//! chunk with its halo; `spline.rs`: the exact evaluator at many points;
+//! `store.rs`: OME-Zarr stores read and written.
 
 use pyo3::prelude::*;
 
 mod spec;
+mod spline;
 mod store;
 mod volume;
 
@@ -25,6 +27,7 @@ fn _boxforge(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(volume::resample, m)?)?;
     m.add_function(wrap_pyfunction!(volume::prefilter, m)?)?;
     m.add_function(wrap_pyfunction!(volume::prefilter_reach, m)?)?;
+    m.add_function(wrap_pyfunction!(spline::spline_eval, m)?)?;
     m.add_function(wrap_pyfunction!(store::open_level, m)?)?;
     m.add_function(wrap_pyfunction!(store::write_store, m)?)?;
     Ok(())
