@@ -35,6 +35,7 @@ __all__ = [
     "matched_lattice",
     "open",
     "prefilter",
+    "render",
     "resample",
     "shader",
     "to_ome_zarr",
@@ -218,3 +219,37 @@ def to_ome_zarr(
         _volume(volume, "to_ome_zarr"), os.fspath(store), lattice, pre, chunk, shard, levels, reduction, dtype,
         tuple(float(s) for s in spacing), unit,
     )
+
+
+def render(
+    volume: Any,
+    spec: Spec,
+    iso: float,
+    size: int = 512,
+    azimuth: float = 30.0,
+    elevation: float = 25.0,
+    perspective: bool = False,
+    resample: bool = False,
+    on_lattice: bool = False,
+    layout: str = "embedded",
+    adapter: Optional[str] = None,
+) -> np.ndarray:
+    """The isosurface at ``iso`` drawn with the spec's filter by the runtime's ray caster (what
+    ``boxforge render --iso`` draws, on lavapipe or any GPU wgpu finds): a (size, size, 4) uint8
+    RGBA image, rows from the top.
+
+    ``volume`` is a Cartesian array (z, y, x), taken as its lattice subset (the default) or, with
+    ``resample``, resampled at a matched sample count; an array already on the filter's lattice
+    (embedded layout) with ``on_lattice``; a :class:`Store`; or a store's path or URL (its level 0).
+    The camera orbits the volume: ``azimuth`` and ``elevation`` in degrees."""
+    if isinstance(volume, (str, os.PathLike)):
+        volume = open(volume)
+    if isinstance(volume, Store):
+        if volume.lattice != "cc":
+            on_lattice = True
+        volume = volume.samples
+    if resample and on_lattice:
+        raise ValueError("resample: the samples are on the lattice already; drop resample")
+    conversion = "lattice" if on_lattice else ("resample" if resample else "subset")
+    return _boxforge.render_iso(_volume(volume, "render"), _spec_text(spec), float(iso), conversion, int(size),
+                                float(azimuth), float(elevation), bool(perspective), layout, adapter)

@@ -28,6 +28,18 @@ def prefilter_reach(spec: str) -> ZYX: ...
 def spline_eval(
     spec: str, points: npt.NDArray[np.float64], samples: npt.NDArray[np.float32], order: int
 ) -> Tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
+def render_iso(
+    samples: npt.NDArray[np.float32],
+    spec: str,
+    iso: float,
+    conversion: str = "subset",
+    size: int = 512,
+    azimuth: float = 30.0,
+    elevation: float = 25.0,
+    perspective: bool = False,
+    layout: str = "embedded",
+    adapter: Optional[str] = None,
+) -> npt.NDArray[np.uint8]: ...
 def open_level(
     path: str, level: int = 0, channel: int = 0, time: int = 0
 ) -> Tuple[npt.NDArray[np.float32], str, Tuple[float, float, float], Optional[str], Optional[str]]: ...

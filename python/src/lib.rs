@@ -8,10 +8,12 @@
 //! `spec.rs`: specs (catalog names, spec files, TOML text) to reports and
 //! shaders; `volume.rs`: resampling and prefiltering of a volume or of a
 //! chunk with its halo; `spline.rs`: the exact evaluator at many points;
-//! `store.rs`: OME-Zarr stores read and written.
+//! `store.rs`: OME-Zarr stores read and written; `render.rs`: an isosurface
+//! image through the runtime's ray caster.
 
 use pyo3::prelude::*;
 
+mod render;
 mod spec;
 mod spline;
 mod store;
@@ -28,6 +30,7 @@ fn _boxforge(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(volume::prefilter, m)?)?;
     m.add_function(wrap_pyfunction!(volume::prefilter_reach, m)?)?;
     m.add_function(wrap_pyfunction!(spline::spline_eval, m)?)?;
+    m.add_function(wrap_pyfunction!(render::render_iso, m)?)?;
     m.add_function(wrap_pyfunction!(store::open_level, m)?)?;
     m.add_function(wrap_pyfunction!(store::write_store, m)?)?;
     Ok(())

@@ -11,6 +11,8 @@ set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
 cd "$root"
 target="${CARGO_TARGET_DIR:-$root/target}"
+# The device boxforge.render opens: lavapipe, as for the other tests.
+. scripts/ensure-vulkan.sh
 py="$(scripts/python/ensure-venv.sh)"
 so="$target/debug/lib_boxforge.so"
 bin="$target/debug/boxforge"
