@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Runs the Python package's tests (python/tests/*.py, pytest) against the
-# extension `cargo test --workspace` built (target/debug/lib_boxforge.so,
+# extension `cargo test --workspace` built (target/debug/deps/lib_boxforge.so,
 # the workspace's own build: no second compile): python/boxforge and that
 # library are laid out as a package in target/python-pkg, which a .pth file
 # puts on the venv's path (scripts/python/ensure-venv.sh makes the venv).
@@ -14,7 +14,8 @@ target="${CARGO_TARGET_DIR:-$root/target}"
 # The device boxforge.render opens: lavapipe, as for the other tests.
 . scripts/ensure-vulkan.sh
 py="$(scripts/python/ensure-venv.sh)"
-so="$target/debug/lib_boxforge.so"
+# A cdylib keeps its plain name in deps/ (cargo test does not copy it up).
+so="$target/debug/deps/lib_boxforge.so"
 bin="$target/debug/boxforge"
 if [ ! -f "$so" ] || [ ! -x "$bin" ]; then
     echo "error: $so or $bin is missing: build them first (cargo test --workspace --no-run, as scripts/test.sh does)" >&2
