@@ -24,7 +24,10 @@ fi
 pkg="$target/python-pkg"
 rm -rf "$pkg"
 mkdir -p "$pkg/boxforge"
-for f in python/boxforge/*; do
+# The package's Python files as links (edits show at once), and the
+# extension as a copy (never through a link into python/: a `maturin
+# develop` leaves its own build there, which this must not overwrite).
+for f in python/boxforge/*.py python/boxforge/*.pyi python/boxforge/py.typed; do
     ln -s "$root/$f" "$pkg/boxforge/"
 done
 cp "$so" "$pkg/boxforge/_boxforge.abi3.so"
