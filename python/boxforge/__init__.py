@@ -30,6 +30,7 @@ Spec = Union[str, "os.PathLike[str]", Mapping[str, Any]]
 __all__ = [
     "Spline",
     "Store",
+    "bounds",
     "inspect",
     "lattice_of",
     "matched_lattice",
@@ -224,7 +225,7 @@ def to_ome_zarr(
 def render(
     volume: Any,
     spec: Spec,
-    iso: float,
+    iso: Optional[float] = None,
     size: int = 512,
     azimuth: float = 30.0,
     elevation: float = 25.0,
@@ -233,17 +234,41 @@ def render(
     on_lattice: bool = False,
     layout: str = "embedded",
     adapter: Optional[str] = None,
+    mode: str = "iso",
+    tf: Optional[Union[str, "os.PathLike[str]"]] = None,
+    preintegrate: bool = True,
+    gpu_budget: Optional[Union[int, str]] = None,
+    brick: Optional[int] = None,
 ) -> np.ndarray:
-    """The isosurface at ``iso`` drawn with the spec's filter by the runtime's ray caster (what
-    ``boxforge render --iso`` draws, on lavapipe or any GPU wgpu finds): a (size, size, 4) uint8
-    RGBA image, rows from the top.
+    """An image drawn with the spec's filter by the runtime's ray casters (what ``boxforge render``
+    draws for the same arguments, on lavapipe or any GPU wgpu finds): a (size, size, 4) uint8 RGBA
+    image, rows from the top.
+
+    ``mode="iso"`` draws the isosurface at ``iso``; ``mode="dvr"`` a volume rendering
+    (emission-absorption, ``--mode dvr``) with the transfer function ``tf``: a preset name
+    (``"mni-tissue"``, ``"mni-opaque"``, ``"marschner-lobb"``) or a JSON file, by default the CLI's
+    ramp over the data's range; ``preintegrate=False`` point-samples it instead.
+
+    ``gpu_budget`` (bytes, or a size such as ``"64MiB"`` or ``"2GiB"``) draws the frame out of core
+    as ``render --gpu-budget`` does: bricks of ``brick`` lattice texels (default 32) paged into a
+    pool that fits the budget; a store's path is then read brick by brick, never whole. A budget
+    below what the renderer needs is a ``ValueError`` saying how much to give.
 
     ``volume`` is a Cartesian array (z, y, x), taken as its lattice subset (the default) or, with
     ``resample``, resampled at a matched sample count; an array already on the filter's lattice
     (embedded layout) with ``on_lattice``; a :class:`Store`; or a store's path or URL (its level 0).
     The camera orbits the volume: ``azimuth`` and ``elevation`` in degrees."""
+    if mode == "iso" and iso is None:
+        raise ValueError("iso: give the iso-value of the isosurface (or mode=\"dvr\" for a volume rendering)")
+    if mode == "dvr" and iso is not None:
+        raise ValueError("iso: a volume rendering (mode=\"dvr\") draws with tf, not an iso-value: drop iso")
+    budget = None if gpu_budget is None else str(gpu_budget)
+    store = None
     if isinstance(volume, (str, os.PathLike)):
-        volume = open(volume)
+        if budget is None:
+            volume = open(volume)
+        else:
+            store = os.fspath(volume)
     if isinstance(volume, Store):
         if volume.lattice != "cc":
             on_lattice = True
@@ -251,5 +276,28 @@ def render(
     if resample and on_lattice:
         raise ValueError("resample: the samples are on the lattice already; drop resample")
     conversion = "lattice" if on_lattice else ("resample" if resample else "subset")
-    return _boxforge.render_iso(_volume(volume, "render"), _spec_text(spec), float(iso), conversion, int(size),
-                                float(azimuth), float(elevation), bool(perspective), layout, adapter)
+    samples = None if store is not None else _volume(volume, "render")
+    return _boxforge.render_frame(
+        samples, _spec_text(spec), mode, 0.5 if iso is None else float(iso), conversion, int(size), float(azimuth),
+        float(elevation), bool(perspective), layout, None if tf is None else os.fspath(tf), bool(preintegrate),
+        budget, None if brick is None else int(brick), store, adapter,
+    )
+
+
+def bounds(samples: Any, spec: Spec, brick: int = 32, adapter: Optional[str] = None) -> np.ndarray:
+    """The [min, max] of the spec's spline over each brick of ``brick``^3 unit cubes, by the
+    runtime's own pass (the bounds ``boxforge render --gpu-budget`` computes before its first frame
+    to skip empty space), on lavapipe or any GPU wgpu finds.
+
+    ``samples`` are the filter's lattice samples in the embedded layout (as :class:`Spline` takes
+    them: a Cartesian array's non-lattice entries are not read). Brick ``[kz, ky, kx]`` spans the
+    positions ``k * brick .. (k + 1) * brick`` along (z, y, x) in sample units; the bricks of the
+    last row reach past the volume over its samples clamped into it. The bounds are those of the
+    Bernstein coefficients of every polynomial piece over the brick (convex hull property), each
+    computed from the samples of its stencil, so every value of the spline in the brick lies in
+    them, including what the samples of the brick's halo contribute. ``brick`` must be a multiple of
+    the lattice's period (2 for BCC and FCC).
+
+    Returns a float32 array of shape (bz, by, bx, 2): ``[..., 0]`` the minimum, ``[..., 1]`` the
+    maximum, bricks in (z, y, x) order."""
+    return _boxforge.bounds(_volume(samples, "bounds"), _spec_text(spec), int(brick), adapter)

@@ -10,6 +10,13 @@ bit for bit, seams included.
 - :func:`resample` changes the grid: each output chunk is one task that
   reads its own Cartesian footprint (its box times the scale, plus the
   trilinear stencil) from the input.
+- :func:`reduce` makes the next pyramid level the same way (its box
+  doubled plus the reduction's taps).
+- :func:`to_ome_zarr` writes the store ``boxforge convert`` writes: the
+  pyramid by :func:`reduce`, each level resampled and prefiltered, each
+  store write unit (chunk or shard) written by the task that computed it,
+  straight from the workers (the store's path must be one they all see),
+  the metadata last.
 
 Arrays are ``(z, y, x)``, float32 in and out.
 """
@@ -17,6 +24,7 @@ Arrays are ``(z, y, x)``, float32 in and out.
 from __future__ import annotations
 
 import math
+import os
 from typing import Any, Optional, Tuple
 
 import dask
@@ -25,7 +33,7 @@ import numpy as np
 
 from . import _boxforge, _spec_text
 
-__all__ = ["prefilter", "resample"]
+__all__ = ["prefilter", "reduce", "resample", "to_ome_zarr"]
 
 
 def _starts(chunks: Tuple[int, ...]) -> list:
@@ -113,6 +121,137 @@ def resample(volume: da.Array, lattice: str, chunks: Optional[Any] = None) -> da
             plane.append(row)
         blocks.append(plane)
     return da.block(blocks)
+
+
+def _footprint_tasks(x: da.Array, out_shape, out_chunks, reach, task):
+    """One task per output chunk, each given the input box it reads:
+    ``reach(lo, size)`` -> the input box ``(f0, f1)`` (f1 exclusive)."""
+    starts = [_starts(c) for c in out_chunks]
+    blocks = []
+    for iz, cz in enumerate(out_chunks[0]):
+        plane = []
+        for iy, cy in enumerate(out_chunks[1]):
+            row = []
+            for ix, cx in enumerate(out_chunks[2]):
+                lo = (starts[0][iz], starts[1][iy], starts[2][ix])
+                size = (cz, cy, cx)
+                f0, f1 = reach(lo, size)
+                piece = x[f0[0]:f1[0], f0[1]:f1[1], f0[2]:f1[2]]
+                t = dask.delayed(task, pure=True)(piece, f0, lo, size)
+                row.append(da.from_delayed(t, shape=size, dtype=np.float32))
+            plane.append(row)
+        blocks.append(plane)
+    return da.block(blocks)
+
+
+def _reduce_block(piece: np.ndarray, origin, lo, size, reduction: str, shape) -> np.ndarray:
+    return _boxforge.reduce(np.ascontiguousarray(piece, dtype=np.float32), reduction, origin, shape, lo, size)
+
+
+def _next_len(n: int, reduction: str) -> int:
+    return max(n // 2, 1) if reduction == "box" else (n + 1) // 2
+
+
+def reduce(volume: da.Array, reduction: str = "box", chunks: Optional[Any] = None) -> da.Array:
+    """The next level of a pyramid (the store writer's ``reduction``: box,
+    subsample, tent or binomial), lazily: one task per output chunk
+    (``chunks``, default: the input's chunk shape), each reading its
+    footprint. Equals the level ``boxforge convert`` stores, bit for bit."""
+    x = _as_volume(volume, "reduce")
+    if reduction not in ("box", "subsample", "tent", "binomial"):
+        raise ValueError(f"reduction {reduction!r}: use box, subsample, tent or binomial")
+    n = tuple(x.shape)
+    out_shape = tuple(_next_len(k, reduction) for k in n)
+    out_chunks = da.core.normalize_chunks(chunks or x.chunksize, out_shape, dtype=np.float32)
+
+    def reach(lo, size):
+        # Samples 2i - 2 ..= 2i + 2 cover every reduction's taps (mirrored
+        # positions included).
+        f0 = tuple(max(0, min(2 * lo[a] - 2, n[a] - 1)) for a in range(3))
+        f1 = tuple(min(n[a], 2 * (lo[a] + size[a] - 1) + 3) for a in range(3))
+        return f0, f1
+
+    def task(piece, f0, lo, size):
+        return _reduce_block(piece, f0, lo, size, reduction, n)
+
+    return _footprint_tasks(x, out_shape, out_chunks, reach, task)
+
+
+def _write_block(block: np.ndarray, plan, level: int, block_info=None) -> np.ndarray:
+    loc = block_info[0]["array-location"]
+    plan.write(level, np.ascontiguousarray(block, dtype=np.float32), tuple(r[0] for r in loc))
+    return np.zeros((1, 1, 1), np.uint8)
+
+
+def to_ome_zarr(volume: Any, path: Any, spec: Any = None, *, lattice: Optional[str] = None, chunk: int = 64,
+                shard: Optional[int] = None, levels: Optional[int] = None, reduction: str = "box",
+                dtype: Optional[str] = None, spacing: Tuple[float, float, float] = (1.0, 1.0, 1.0),
+                unit: Optional[str] = None, compute: bool = True):
+    """Writes the Cartesian ``volume`` (z, y, x) at ``path`` as the OME-Zarr
+    pyramid ``boxforge convert`` writes with the same options: with
+    ``spec``, each level resampled on the spec's lattice (or ``lattice``)
+    and prefiltered for it (``--lattice L --prefilter SPEC``); with
+    ``lattice`` alone, resampled only; with neither, the Cartesian samples.
+    The same bytes as the CLI's store, chunk for chunk.
+
+    Each store write unit is written by the task that computes it, so
+    ``path`` must be a folder every worker sees (a shared file system on a
+    multi-machine cluster). The store is complete (its metadata written)
+    when the returned levels come back. ``compute=False`` returns
+    ``(plan, writes)``: the unstarted Dask array of writes (compute it,
+    then call ``plan.finish()``).
+    """
+    x = _as_volume(volume, "to_ome_zarr")
+    filter_spec = _spec_text(spec) if spec is not None else None
+    plan = _boxforge.StorePlan(os.fspath(path), tuple(x.shape), lattice=lattice, prefilter=filter_spec, chunk=chunk,
+                               shard=shard, levels=levels, reduction=reduction, dtype=dtype,
+                               spacing=tuple(float(s) for s in spacing), unit=unit)
+    store_lattice = plan.lattice
+    resampled_lattice = store_lattice if store_lattice not in (None, "cc") else None
+    writes = []
+    level = x
+    for k, cart in enumerate(plan.cartesian_levels):
+        if k > 0:
+            # convert reduces each level from the one it stored: integer
+            # samples rounded as the store rounds them.
+            stored = level if store_lattice is not None or dtype in (None, "float32") else _rounded(level, dtype)
+            level = reduce(stored, reduction, chunks=plan.block)
+        assert tuple(level.shape) == tuple(cart), (level.shape, cart)
+        # Every pass in the store's blocks (one write unit each), so each
+        # block is computed, prefiltered and written without a rechunk.
+        samples = level if resampled_lattice is not None else level.rechunk(plan.block)
+        if resampled_lattice is not None:
+            samples = resample(samples, resampled_lattice, chunks=plan.block)
+        if filter_spec is not None:
+            samples = prefilter(samples, filter_spec)
+        assert tuple(samples.shape) == tuple(plan.levels[k]), (samples.shape, plan.levels[k])
+        blocks = samples if samples.chunksize == tuple(min(b, n) for b, n in zip(plan.block, samples.shape)) \
+            else samples.rechunk(plan.block)
+        writes.append(blocks.map_blocks(_write_block, plan=plan, level=k, dtype=np.uint8, chunks=(1, 1, 1),
+                                        meta=np.empty((0, 0, 0), np.uint8)).ravel())
+    plan.create()
+    done = da.concatenate(writes)
+    if not compute:
+        return plan, done
+    done.compute()
+    return plan.finish()
+
+
+_RANGES = {"uint8": (0.0, 255.0), "uint16": (0.0, 65535.0), "int16": (-32768.0, 32767.0)}
+
+
+def _round_block(b: np.ndarray, lo: float, hi: float) -> np.ndarray:
+    # Rust's f32::round (half away from zero), exactly: x - trunc(x) is exact.
+    t = np.trunc(b)
+    r = t + np.where(np.abs(b - t) >= 0.5, np.sign(b), 0).astype(np.float32)
+    return np.clip(r, lo, hi).astype(np.float32)
+
+
+def _rounded(x: da.Array, dtype: str) -> da.Array:
+    if dtype not in _RANGES:
+        raise ValueError(f"dtype {dtype!r}: use float32, uint8, uint16 or int16")
+    lo, hi = _RANGES[dtype]
+    return x.map_blocks(_round_block, lo, hi, dtype=np.float32)
 
 
 def _as_volume(a: Any, what: str) -> da.Array:

@@ -1,6 +1,24 @@
-from typing import Any, Optional
+from typing import Any, List, Optional, Tuple, Union
 
 import dask.array as da
 
+from ._boxforge import StorePlan
+
 def prefilter(samples: da.Array, spec: Any) -> da.Array: ...
+def reduce(volume: da.Array, reduction: str = "box", chunks: Optional[Any] = None) -> da.Array: ...
 def resample(volume: da.Array, lattice: str, chunks: Optional[Any] = None) -> da.Array: ...
+def to_ome_zarr(
+    volume: Any,
+    path: Any,
+    spec: Any = None,
+    *,
+    lattice: Optional[str] = None,
+    chunk: int = 64,
+    shard: Optional[int] = None,
+    levels: Optional[int] = None,
+    reduction: str = "box",
+    dtype: Optional[str] = None,
+    spacing: Tuple[float, float, float] = (1.0, 1.0, 1.0),
+    unit: Optional[str] = None,
+    compute: bool = True,
+) -> Union[List[Tuple[int, int, int]], Tuple[StorePlan, da.Array]]: ...

@@ -9,10 +9,12 @@
 //! shaders; `volume.rs`: resampling and prefiltering of a volume or of a
 //! chunk with its halo; `spline.rs`: the exact evaluator at many points;
 //! `store.rs`: OME-Zarr stores read and written; `render.rs`: an isosurface
-//! image through the runtime's ray caster.
+//! or a volume rendering through the runtime's ray casters, in core or out
+//! of core; `bounds.rs`: per-brick bounds of a spline by the runtime's pass.
 
 use pyo3::prelude::*;
 
+mod bounds;
 mod render;
 mod spec;
 mod spline;
@@ -30,8 +32,11 @@ fn _boxforge(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(volume::prefilter, m)?)?;
     m.add_function(wrap_pyfunction!(volume::prefilter_reach, m)?)?;
     m.add_function(wrap_pyfunction!(spline::spline_eval, m)?)?;
-    m.add_function(wrap_pyfunction!(render::render_iso, m)?)?;
+    m.add_function(wrap_pyfunction!(render::render_frame, m)?)?;
+    m.add_function(wrap_pyfunction!(bounds::bounds, m)?)?;
     m.add_function(wrap_pyfunction!(store::open_level, m)?)?;
     m.add_function(wrap_pyfunction!(store::write_store, m)?)?;
+    m.add_function(wrap_pyfunction!(volume::reduce, m)?)?;
+    m.add_class::<store::PyStorePlan>()?;
     Ok(())
 }

@@ -4,8 +4,8 @@
 
 use crate::volume::lattice_named;
 use boxforge_runtime::volume::zarr::{
-    write_lattice_pyramid, write_pyramid, LatticeOptions, OmeZarr, PyramidOptions, Reduction, Selection, ZarrType,
-    ZarrVolume,
+    write_lattice_pyramid, write_pyramid, LatticeOptions, OmeZarr, PyramidOptions, Reduction, Selection, StorePlan,
+    ZarrType, ZarrVolume,
 };
 use boxforge_runtime::volume::LatticeVolume;
 use numpy::ndarray::Array3;
@@ -77,30 +77,14 @@ pub(crate) fn write_store(
     spacing: (f64, f64, f64),
     unit: Option<String>,
 ) -> PyResult<Vec<(usize, usize, usize)>> {
-    let reduction = match reduction {
-        "box" => Reduction::Box,
-        "subsample" => Reduction::Subsample,
-        "tent" => Reduction::Tent,
-        "binomial" => Reduction::Binomial,
-        other => {
-            return Err(PyValueError::new_err(format!("reduction {other:?}: use box, subsample, tent or binomial")))
-        }
-    };
+    let reduction = reduction_named(reduction)?;
     let derivation = prefilter.map(|p| crate::spec::derivation_of(py, p)).transpose()?;
     let lattice = match (lattice, &derivation) {
         (Some(name), _) => Some(lattice_named(name)?),
         (None, Some(d)) => Some(d.filter.lattice.clone()),
         (None, None) => None,
     };
-    let ty = match dtype {
-        None | Some("float32") => ZarrType::F32,
-        Some("uint8") => ZarrType::U8,
-        Some("uint16") => ZarrType::U16,
-        Some("int16") => ZarrType::I16,
-        Some(other) => {
-            return Err(PyValueError::new_err(format!("dtype {other:?}: use float32, uint8, uint16 or int16")))
-        }
-    };
+    let ty = type_named(dtype)?;
     let s = a.shape();
     let data = a.as_slice().map_err(|_| PyValueError::new_err("to_ome_zarr: the array is not C-contiguous"))?.to_vec();
     let source = LatticeVolume { lattice: lattice_named("cc")?, dims: [s[2], s[1], s[0]], data };
@@ -125,4 +109,171 @@ pub(crate) fn write_store(
         })
         .map_err(value_error)?;
     Ok(report.levels.iter().map(|d| (d[2], d[1], d[0])).collect())
+}
+
+pub(crate) fn reduction_named(name: &str) -> PyResult<Reduction> {
+    Ok(match name {
+        "box" => Reduction::Box,
+        "subsample" => Reduction::Subsample,
+        "tent" => Reduction::Tent,
+        "binomial" => Reduction::Binomial,
+        other => {
+            return Err(PyValueError::new_err(format!("reduction {other:?}: use box, subsample, tent or binomial")))
+        }
+    })
+}
+
+fn type_named(dtype: Option<&str>) -> PyResult<ZarrType> {
+    Ok(match dtype {
+        None | Some("float32") => ZarrType::F32,
+        Some("uint8") => ZarrType::U8,
+        Some("uint16") => ZarrType::U16,
+        Some("int16") => ZarrType::I16,
+        Some(other) => {
+            return Err(PyValueError::new_err(format!("dtype {other:?}: use float32, uint8, uint16 or int16")))
+        }
+    })
+}
+
+/// The arguments a plan is made from, kept so that it pickles as them.
+type PlanArgs = (
+    String,
+    (usize, usize, usize),
+    Option<String>,
+    Option<String>,
+    usize,
+    Option<usize>,
+    Option<usize>,
+    String,
+    Option<String>,
+    (f64, f64, f64),
+    Option<String>,
+);
+
+/// A store `boxforge convert` would write, planned and written unit by
+/// unit by any number of processes (the runtime's `StorePlan`): what
+/// `boxforge.dask.to_ome_zarr` ships to its workers. Shapes are (z, y, x).
+#[pyclass(name = "StorePlan", module = "boxforge._boxforge", frozen)]
+pub(crate) struct PyStorePlan {
+    plan: StorePlan,
+    args: PlanArgs,
+}
+
+#[pymethods]
+impl PyStorePlan {
+    #[new]
+    #[pyo3(signature = (path, shape, lattice = None, prefilter = None, chunk = 64, shard = None, levels = None,
+                        reduction = "box".to_string(), dtype = None, spacing = (1.0, 1.0, 1.0), unit = None))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        path: String,
+        shape: (usize, usize, usize),
+        lattice: Option<String>,
+        prefilter: Option<String>,
+        chunk: usize,
+        shard: Option<usize>,
+        levels: Option<usize>,
+        reduction: String,
+        dtype: Option<String>,
+        spacing: (f64, f64, f64),
+        unit: Option<String>,
+    ) -> PyResult<Self> {
+        let filter = prefilter.as_deref().map(crate::spec::filter_of).transpose()?;
+        let lattice_of_store = match (&lattice, &filter) {
+            (Some(name), _) => Some(lattice_named(name)?),
+            (None, Some(f)) => Some(f.lattice.clone()),
+            (None, None) => None,
+        };
+        if let (Some(f), Some(l)) = (&filter, &lattice_of_store) {
+            if f.lattice.name != l.name {
+                return Err(value_error(boxforge_runtime::volume::VolumeError::LatticeMismatch {
+                    filter: f.name.clone(),
+                    filter_lattice: f.lattice.name.clone(),
+                    data_lattice: l.name.clone(),
+                }));
+            }
+        }
+        let options = PyramidOptions {
+            chunk,
+            shard,
+            levels,
+            reduction: reduction_named(&reduction)?,
+            ty: type_named(dtype.as_deref())?,
+            spacing: [spacing.2, spacing.1, spacing.0],
+            unit: unit.clone(),
+            ..PyramidOptions::default()
+        };
+        let with_lattice = lattice_of_store.as_ref().map(|l| (l, filter.as_ref().map(|f| f.name.clone())));
+        let plan = StorePlan::new(Path::new(&path), [shape.2, shape.1, shape.0], &options, with_lattice)
+            .map_err(value_error)?;
+        let args = (path, shape, lattice, prefilter, chunk, shard, levels, reduction, dtype, spacing, unit);
+        Ok(PyStorePlan { plan, args })
+    }
+
+    /// Pickles as the arguments it was made from.
+    fn __getnewargs__(&self) -> PlanArgs {
+        self.args.clone()
+    }
+
+    /// The Cartesian levels (z, y, x) each stored level is made from, finest first.
+    #[getter]
+    fn cartesian_levels(&self) -> Vec<(usize, usize, usize)> {
+        self.plan.cartesian_levels().iter().map(|d| (d[2], d[1], d[0])).collect()
+    }
+
+    /// The samples each level stores (z, y, x): the Cartesian levels, or their lattice boxes.
+    #[getter]
+    fn levels(&self) -> Vec<(usize, usize, usize)> {
+        self.plan.levels().iter().map(|d| (d[2], d[1], d[0])).collect()
+    }
+
+    /// The lattice of the stored samples (None: a Cartesian store).
+    #[getter]
+    fn lattice(&self) -> Option<String> {
+        self.plan.lattice().map(|l| l.name.clone())
+    }
+
+    /// The edge (z, y, x) of the samples box one write unit holds: blocks
+    /// of this shape (smaller at the far edges) are written whole by one writer.
+    #[getter]
+    fn block(&self) -> (usize, usize, usize) {
+        let (p, u) = (self.plan.period(), self.plan.unit());
+        (p[2] * u, p[1] * u, p[0] * u)
+    }
+
+    /// The reduction between Cartesian levels.
+    #[getter]
+    fn reduction(&self) -> &'static str {
+        self.plan.reduction().name()
+    }
+
+    /// Makes the output folder (it must not exist, or be empty) and the levels' arrays.
+    fn create(&self, py: Python<'_>) -> PyResult<()> {
+        py.detach(|| {
+            self.plan.make_folder()?;
+            self.plan.create()
+        })
+        .map_err(value_error)
+    }
+
+    /// Writes level `level`'s block at `origin` (z, y, x): one write unit's
+    /// samples box, whole (see `block`).
+    fn write(
+        &self,
+        py: Python<'_>,
+        level: usize,
+        block: PyReadonlyArray3<'_, f32>,
+        origin: (usize, usize, usize),
+    ) -> PyResult<()> {
+        let s = block.shape();
+        let size = [s[2], s[1], s[0]];
+        let data = block.as_slice().map_err(|_| PyValueError::new_err("write: the block is not C-contiguous"))?;
+        py.detach(|| self.plan.write_block(level, data, [origin.2, origin.1, origin.0], size)).map_err(value_error)
+    }
+
+    /// Writes the group's metadata: the store is complete. Returns each level's samples (z, y, x).
+    fn finish(&self, py: Python<'_>) -> PyResult<Vec<(usize, usize, usize)>> {
+        let report = py.detach(|| self.plan.finish()).map_err(value_error)?;
+        Ok(report.levels.iter().map(|d| (d[2], d[1], d[0])).collect())
+    }
 }

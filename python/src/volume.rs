@@ -137,3 +137,25 @@ pub(crate) fn prefilter_reach(py: Python<'_>, spec: &str) -> PyResult<(usize, us
     let reach = |a: usize| d.prefilter.taps.iter().map(|(k, _)| k[a].unsigned_abs() as usize).max().unwrap_or(0);
     Ok((reach(2), reach(1), reach(0)))
 }
+
+/// The next pyramid level's box [`out_origin`, `out_origin + out_shape`)
+/// (z, y, x) by `reduction` (the store writer's), from `a`: the finer
+/// level's samples at `origin` of a level of `shape`, covering the box's
+/// footprint (its box doubled, plus two samples each side, inside the level).
+#[pyfunction]
+#[pyo3(signature = (a, reduction, origin, shape, out_origin, out_shape))]
+pub(crate) fn reduce<'py>(
+    py: Python<'py>,
+    a: PyReadonlyArray3<'py, f32>,
+    reduction: &str,
+    origin: (usize, usize, usize),
+    shape: (usize, usize, usize),
+    out_origin: (usize, usize, usize),
+    out_shape: (usize, usize, usize),
+) -> PyResult<Bound<'py, PyArray3<f32>>> {
+    let r = crate::store::reduction_named(reduction)?;
+    let (data, size) = samples(&a, "reduce")?;
+    let n = xyz(out_shape);
+    let v = py.detach(|| r.reduce(data, xyz(origin), size, xyz(shape), xyz(out_origin), n)).map_err(value_error)?;
+    Ok(Array3::from_shape_vec((n[2], n[1], n[0]), v).map_err(value_error)?.into_pyarray(py))
+}

@@ -8,8 +8,10 @@ import os
 import socket
 import subprocess
 import sys
+import pickle
 import time
 
+import dask
 import dask.array as da
 import numpy as np
 import pytest
@@ -81,21 +83,68 @@ def cluster(tmp_path):
                 p.kill()
 
 
-def test_two_worker_processes_compute_what_convert_stores(cluster, tmp_path, cli):
+def store_files(path):
+    """Every file of a store (path relative to it) and its bytes."""
+    out = {}
+    for d, _, files in os.walk(path):
+        for f in files:
+            full = os.path.join(d, f)
+            with open(full, "rb") as fh:
+                out[os.path.relpath(full, path)] = fh.read()
+    return out
+
+
+def assert_same_store(got, want):
+    got, want = store_files(got), store_files(want)
+    assert sorted(got) == sorted(want), "the stores hold different files"
+    differ = [f for f in want if got[f] != want[f]]
+    assert not differ, f"files differ from convert's: {differ[:5]}"
+
+
+def test_two_worker_processes_write_what_convert_writes(cluster, tmp_path, cli):
     volume = smooth_volume((64, 64, 64), seed=3)
     x = da.from_array(volume, chunks=(13, 17, 11))
-    coefficients = bd.prefilter(bd.resample(x, "bcc"), "bcc7")
-    got = cluster.compute(coefficients).result()
-    workers = {w for w, tasks in cluster.has_what().items()}
-    assert len(workers) == 2
+    levels = bd.to_ome_zarr(x, tmp_path / "dask.zarr", "bcc7", chunk=16)  # the client is the default scheduler
     # Both workers did some of the work (tasks spread over processes, not threads of one).
-    processed = cluster.run(lambda dask_worker: len(dask_worker.data) + len(dask_worker.state.log))
+    processed = cluster.run(lambda dask_worker: len(dask_worker.state.log))
     assert len(processed) == 2 and all(n > 0 for n in processed.values()), processed
     raw = tmp_path / "v.raw"
     volume.tofile(raw)
     cli("convert", raw, tmp_path / "cli.zarr", "--raw", "64,64,64,f32", "--lattice", "bcc", "--prefilter", "bcc7",
-        "--levels", "1", "--chunk", "32")
-    stored = boxforge.open(tmp_path / "cli.zarr")
-    assert (stored.lattice, stored.prefilter) == ("bcc", "bcc7")
-    assert got.shape == stored.samples.shape
-    assert np.array_equal(got, stored.samples), "the cluster's coefficients differ from convert's"
+        "--chunk", "16")
+    assert len(levels) == 3
+    # The same bytes: every level's chunks (prefiltered BCC samples, seams
+    # included) and the metadata.
+    assert_same_store(tmp_path / "dask.zarr", tmp_path / "cli.zarr")
+    stored = boxforge.open(tmp_path / "dask.zarr", level=1)
+    assert (stored.lattice, stored.prefilter, stored.samples.shape) == ("bcc", "bcc7", levels[1])
+
+
+@pytest.mark.parametrize("options, flags", [
+    (dict(dtype="uint8", reduction="binomial"), ["--dtype", "u8", "--reduction", "binomial"]),
+    (dict(lattice="fcc", shard=16), ["--lattice", "fcc", "--shard", "16"]),
+    (dict(spec="cc_tricubic", levels=2, reduction="tent"), ["--lattice", "cc", "--prefilter", "cc_tricubic",
+                                                             "--levels", "2", "--reduction", "tent"]),
+])
+def test_stores_from_odd_chunks_are_converts_bytes(tmp_path, cli, options, flags):
+    volume = smooth_volume((21, 30, 19), seed=5) * 300 - 20  # integer types clamp and round
+    x = da.from_array(volume, chunks=(5, 7, 4))
+    with dask.config.set(scheduler="threads"):
+        bd.to_ome_zarr(x, tmp_path / "dask.zarr", chunk=8, **options)
+    raw = tmp_path / "v.raw"
+    volume.astype(np.float32).tofile(raw)
+    cli("convert", raw, tmp_path / "cli.zarr", "--raw", "19,30,21,f32", "--chunk", "8", *flags)
+    assert_same_store(tmp_path / "dask.zarr", tmp_path / "cli.zarr")
+
+
+def test_a_store_plan_pickles_and_refuses_blocks_that_are_not_write_units(tmp_path):
+    plan = boxforge._boxforge.StorePlan(str(tmp_path / "s.zarr"), (20, 20, 20), prefilter="bcc7", chunk=8)
+    again = pickle.loads(pickle.dumps(plan))
+    assert (again.levels, again.block, again.lattice) == (plan.levels, plan.block, "bcc")
+    plan.create()
+    with pytest.raises(ValueError, match="not a write unit"):
+        plan.write(0, np.zeros((16, 16, 16), np.float32), (1, 0, 0))
+    with pytest.raises(ValueError, match="exists"):
+        bd.to_ome_zarr(np.zeros((8, 8, 8), np.float32), tmp_path / "s.zarr")
+    with pytest.raises(ValueError, match="lattice"):
+        bd.to_ome_zarr(np.zeros((8, 8, 8), np.float32), tmp_path / "t.zarr", "fcc6", lattice="bcc")

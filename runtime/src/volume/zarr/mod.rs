@@ -16,6 +16,7 @@ mod error;
 #[cfg(feature = "http")]
 mod http;
 mod meta;
+mod plan;
 mod source;
 mod store;
 mod write;
@@ -26,6 +27,7 @@ pub use error::ZarrError;
 #[cfg(feature = "http")]
 pub use http::{HttpOptions, HttpStore};
 pub use meta::{AxisKind, LevelMeta, Multiscale};
+pub use plan::{pyramid_dims, StorePlan};
 pub use source::{ZarrVolume, DEFAULT_CHUNK_CACHE};
 pub use store::{is_store, OmeZarr, Selection, ZarrLevel};
 pub use write::{write_pyramid, PyramidOptions, PyramidReport, Reduction};

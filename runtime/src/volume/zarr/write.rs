@@ -24,6 +24,7 @@
 //! needs so its coarse levels do not alias, the box loses least at every
 //! level. Integer samples are rounded to the nearest value the type holds.
 
+use super::plan::StorePlan;
 use super::{ZarrError, ZarrType};
 use crate::volume::{BrickSource, VolumeError};
 use std::path::Path;
@@ -119,58 +120,35 @@ pub fn write_pyramid(
     o: &PyramidOptions,
     progress: &dyn Fn(u64, u64),
 ) -> Result<PyramidReport, VolumeError> {
-    check_options(o)?;
-    if out.exists() && std::fs::read_dir(out).map(|mut d| d.next().is_some()).unwrap_or(true) {
-        return Err(ZarrError::Exists { path: out.to_path_buf() }.into());
-    }
-    let werr = |e: &dyn std::fmt::Display| {
-        VolumeError::from(ZarrError::Write { path: out.to_path_buf(), reason: e.to_string() })
-    };
-    std::fs::create_dir_all(out).map_err(|e| werr(&e))?;
-    let store = Arc::new(FilesystemStore::new(out).map_err(|e| werr(&e))?);
-    let mut dims = vec![source.dims()];
-    loop {
-        let last = *dims.last().expect("level 0");
-        let more = match o.levels {
-            Some(n) => dims.len() < n,
-            None => last.iter().copied().max().unwrap_or(1) > o.chunk,
-        };
-        if !more {
-            break;
-        }
-        dims.push(last.map(|n| o.reduction.next_len(n)));
-    }
-    let unit = o.shard.unwrap_or(o.chunk);
-    let units = |d: [usize; 3]| d.iter().map(|&n| n.div_ceil(unit) as u64).product::<u64>();
-    let total: u64 = dims.iter().map(|&d| units(d)).sum();
+    let plan = StorePlan::new(out, source.dims(), o, None)?;
+    plan.make_folder()?;
+    plan.create()?;
+    let dims = plan.cartesian_levels().to_vec();
+    let total: u64 = (0..dims.len()).map(|k| plan.unit_boxes(k).count() as u64).sum();
     let mut done = 0u64;
-    let mut previous: Option<Array<FilesystemStore>> = None;
-    for (k, &d) in dims.iter().enumerate() {
-        let array = create_array(&store, k, d, None, o).map_err(|e| werr(&e))?;
-        for lo in unit_boxes(d, unit) {
-            let hi: [usize; 3] = std::array::from_fn(|a| (lo[a] + unit).min(d[a]) - 1);
-            let values = match &previous {
-                None => {
-                    let size = std::array::from_fn(|a| hi[a] - lo[a] + 1);
-                    let mut v = vec![0f32; size.iter().product()];
-                    source.read_box(lo.map(|x| x as i64), size, &mut v)?;
-                    v
-                }
-                Some(fine) => reduce_box(fine, dims[k - 1], lo, hi, o, out)?,
-            };
-            let subset = ArraySubset::new_with_ranges(&[
-                lo[2] as u64..hi[2] as u64 + 1,
-                lo[1] as u64..hi[1] as u64 + 1,
-                lo[0] as u64..hi[0] as u64 + 1,
-            ]);
-            store_values(&array, &subset, &values, o.ty).map_err(|e| werr(&e))?;
+    for k in 0..dims.len() {
+        let reduced;
+        let samples: &dyn BrickSource = if k == 0 {
+            source
+        } else {
+            reduced = StoredLevel { out, array: open_level(out, k - 1)?, dims: dims[k - 1], o };
+            &Reduced { fine: &reduced, dims: dims[k], reduction: o.reduction }
+        };
+        for lo in plan.unit_boxes(k) {
+            plan.write_unit(k, samples, lo)?;
             done += 1;
             progress(done, total);
         }
-        previous = Some(array);
     }
-    write_group(&store, &dims, o).map_err(|e| werr(&e))?;
-    Ok(PyramidReport { levels: dims })
+    plan.finish()
+}
+
+fn open_level(out: &Path, k: usize) -> Result<Array<FilesystemStore>, VolumeError> {
+    let werr = |e: &dyn std::fmt::Display| {
+        VolumeError::from(ZarrError::Write { path: out.to_path_buf(), reason: e.to_string() })
+    };
+    let store = Arc::new(FilesystemStore::new(out).map_err(|e| werr(&e))?);
+    Array::open(store, &format!("/{k}")).map_err(|e| werr(&e))
 }
 
 pub(super) fn check_options(o: &PyramidOptions) -> Result<(), ZarrError> {
@@ -273,68 +251,167 @@ pub(super) fn store_values(
     }
 }
 
-/// Level k+1's samples in [lo, hi] (inclusive, x fastest) reduced from
-/// level k (`fine`, of `n` samples along x, y, z).
-fn reduce_box(
-    fine: &Array<FilesystemStore>,
-    n: [usize; 3],
-    lo: [usize; 3],
-    hi: [usize; 3],
-    o: &PyramidOptions,
-    out: &Path,
-) -> Result<Vec<f32>, VolumeError> {
-    // The footprint of [lo, hi] on level k.
-    let reach = match o.reduction {
-        Reduction::Binomial => 2,
-        Reduction::Box | Reduction::Tent => 1,
-        Reduction::Subsample => 0,
-    };
-    let f0: [usize; 3] = std::array::from_fn(|a| (2 * lo[a]).saturating_sub(2));
-    let f1: [usize; 3] = std::array::from_fn(|a| (2 * hi[a] + reach).min(n[a] - 1));
-    let subset = ArraySubset::new_with_ranges(&[
-        f0[2] as u64..f1[2] as u64 + 1,
-        f0[1] as u64..f1[1] as u64 + 1,
-        f0[0] as u64..f1[0] as u64 + 1,
-    ]);
-    let rerr = |e: zarrs::array::ArrayError| {
-        VolumeError::from(ZarrError::Read {
-            path: out.to_path_buf(),
-            level: "written level".into(),
-            reason: e.to_string(),
+/// A level just written, read back box by box as float32.
+struct StoredLevel<'a> {
+    out: &'a Path,
+    array: Array<FilesystemStore>,
+    dims: [usize; 3],
+    o: &'a PyramidOptions,
+}
+
+impl StoredLevel<'_> {
+    fn read(&self, f0: [usize; 3], f1: [usize; 3]) -> Result<Vec<f32>, VolumeError> {
+        let subset = ArraySubset::new_with_ranges(&[
+            f0[2] as u64..f1[2] as u64 + 1,
+            f0[1] as u64..f1[1] as u64 + 1,
+            f0[0] as u64..f1[0] as u64 + 1,
+        ]);
+        let rerr = |e: zarrs::array::ArrayError| {
+            VolumeError::from(ZarrError::Read {
+                path: self.out.to_path_buf(),
+                level: "written level".into(),
+                reason: e.to_string(),
+            })
+        };
+        let fine = &self.array;
+        Ok(match self.o.ty {
+            ZarrType::U8 => {
+                fine.retrieve_array_subset::<Vec<u8>>(&subset).map_err(rerr)?.into_iter().map(f32::from).collect()
+            }
+            ZarrType::U16 => {
+                fine.retrieve_array_subset::<Vec<u16>>(&subset).map_err(rerr)?.into_iter().map(f32::from).collect()
+            }
+            ZarrType::I16 => {
+                fine.retrieve_array_subset::<Vec<i16>>(&subset).map_err(rerr)?.into_iter().map(f32::from).collect()
+            }
+            ZarrType::F32 => fine.retrieve_array_subset::<Vec<f32>>(&subset).map_err(rerr)?,
         })
-    };
-    let mut data: Vec<f32> = match o.ty {
-        ZarrType::U8 => {
-            fine.retrieve_array_subset::<Vec<u8>>(&subset).map_err(rerr)?.into_iter().map(f32::from).collect()
-        }
-        ZarrType::U16 => {
-            fine.retrieve_array_subset::<Vec<u16>>(&subset).map_err(rerr)?.into_iter().map(f32::from).collect()
-        }
-        ZarrType::I16 => {
-            fine.retrieve_array_subset::<Vec<i16>>(&subset).map_err(rerr)?.into_iter().map(f32::from).collect()
-        }
-        ZarrType::F32 => fine.retrieve_array_subset::<Vec<f32>>(&subset).map_err(rerr)?,
-    };
-    let mut size: [usize; 3] = std::array::from_fn(|a| f1[a] - f0[a] + 1);
-    for axis in 0..3 {
-        let count = hi[axis] - lo[axis] + 1;
-        data = reduce_axis(
-            &data,
-            size,
-            axis,
-            count,
-            |j, t| {
-                let p = match o.reduction {
-                    Reduction::Binomial | Reduction::Tent => mirror(2 * (lo[axis] + j) as i64 + t, n[axis]),
-                    Reduction::Box | Reduction::Subsample => (2 * (lo[axis] + j) + t.max(0) as usize).min(n[axis] - 1),
-                };
-                p - f0[axis]
-            },
-            o.reduction,
-        );
-        size[axis] = count;
     }
-    Ok(data)
+}
+
+/// The next level of a stored level, box by box: each box reads its footprint.
+struct Reduced<'a> {
+    fine: &'a StoredLevel<'a>,
+    dims: [usize; 3],
+    reduction: Reduction,
+}
+
+impl Reduced<'_> {
+    fn read_inside(&self, lo: [usize; 3], size: [usize; 3]) -> Result<Vec<f32>, VolumeError> {
+        let n = self.fine.dims;
+        let hi: [usize; 3] = std::array::from_fn(|a| lo[a] + size[a] - 1);
+        let (f0, f1) = self.reduction.footprint(n, lo, hi);
+        let data = self.fine.read(f0, f1)?;
+        let window: [usize; 3] = std::array::from_fn(|a| f1[a] - f0[a] + 1);
+        self.reduction.reduce(&data, f0, window, n, lo, size)
+    }
+}
+
+impl BrickSource for Reduced<'_> {
+    fn dims(&self) -> [usize; 3] {
+        self.dims
+    }
+
+    fn lattice(&self) -> &boxforge::spec::lattice::Lattice {
+        static CC: std::sync::OnceLock<boxforge::spec::lattice::Lattice> = std::sync::OnceLock::new();
+        CC.get_or_init(|| boxforge::spec::lattice::Lattice::builtin("cc").expect("cc is built in"))
+    }
+
+    fn read_box(&self, lo: [i64; 3], size: [usize; 3], out: &mut [f32]) -> Result<(), VolumeError> {
+        // The writer reads whole units inside the level.
+        let inside = (0..3).all(|a| lo[a] >= 0 && lo[a] as usize + size[a] <= self.dims[a]);
+        if !inside || out.len() != size.iter().product::<usize>() {
+            return Err(VolumeError::BadDims { dims: size, reason: format!("a box at {lo:?} outside the level") });
+        }
+        out.copy_from_slice(&self.read_inside(lo.map(|x| x as usize), size)?);
+        Ok(())
+    }
+
+    fn sample_range(&self) -> Result<(f32, f32), VolumeError> {
+        Err(VolumeError::BadDims { dims: self.dims, reason: "a level being written has no range yet".into() })
+    }
+
+    fn resident_bytes(&self) -> usize {
+        0
+    }
+}
+
+impl Reduction {
+    /// How far the reduction's taps reach past sample 2i of the finer level.
+    fn reach(self) -> (usize, usize) {
+        match self {
+            Reduction::Binomial => (2, 2),
+            Reduction::Box => (0, 1),
+            Reduction::Tent => (1, 1),
+            Reduction::Subsample => (0, 0),
+        }
+    }
+
+    /// The box [f0, f1] (inclusive, x, y, z) of a finer level of `n`
+    /// samples that the coarser samples [lo, hi] read.
+    pub fn footprint(self, n: [usize; 3], lo: [usize; 3], hi: [usize; 3]) -> ([usize; 3], [usize; 3]) {
+        let (before, after) = self.reach();
+        let f0 = std::array::from_fn(|a| (2 * lo[a]).saturating_sub(before).min(n[a] - 1));
+        let f1 = std::array::from_fn(|a| (2 * hi[a] + after).min(n[a] - 1));
+        (f0, f1)
+    }
+
+    /// The coarser level's samples in the box at `lo` of `count` (x
+    /// fastest), from `data`: the finer level's samples (of `n`) in the box
+    /// at `origin` of `size`, which must hold [`Reduction::footprint`].
+    /// The same sums in the same order wherever the box is cut, so a level
+    /// reduced in pieces equals the level reduced whole, bit for bit.
+    pub fn reduce(
+        self,
+        data: &[f32],
+        origin: [usize; 3],
+        size: [usize; 3],
+        n: [usize; 3],
+        lo: [usize; 3],
+        count: [usize; 3],
+    ) -> Result<Vec<f32>, VolumeError> {
+        let coarse = n.map(|x| self.next_len(x));
+        if count.contains(&0) || (0..3).any(|a| lo[a] + count[a] > coarse[a]) {
+            return Err(VolumeError::BadDims {
+                dims: count,
+                reason: format!("a box at {lo:?} (x, y, z) is not inside the reduced level of {coarse:?}"),
+            });
+        }
+        let hi: [usize; 3] = std::array::from_fn(|a| lo[a] + count[a] - 1);
+        let (f0, f1) = self.footprint(n, lo, hi);
+        let covers = (0..3).all(|a| origin[a] <= f0[a] && f1[a] < origin[a] + size[a] && origin[a] + size[a] <= n[a]);
+        if !covers || data.len() != size.iter().product::<usize>() {
+            return Err(VolumeError::BadDims {
+                dims: size,
+                reason: format!(
+                    "the samples at {origin:?} (x, y, z) do not cover the reduction's footprint {f0:?}..={f1:?}"
+                ),
+            });
+        }
+        let mut data = std::borrow::Cow::Borrowed(data);
+        let mut size = size;
+        for axis in 0..3 {
+            let reduced = reduce_axis(
+                &data,
+                size,
+                axis,
+                count[axis],
+                |j, t| {
+                    let p = match self {
+                        Reduction::Binomial | Reduction::Tent => mirror(2 * (lo[axis] + j) as i64 + t, n[axis]),
+                        Reduction::Box | Reduction::Subsample => {
+                            (2 * (lo[axis] + j) + t.max(0) as usize).min(n[axis] - 1)
+                        }
+                    };
+                    p - origin[axis]
+                },
+                self,
+            );
+            data = std::borrow::Cow::Owned(reduced);
+            size[axis] = count[axis];
+        }
+        Ok(data.into_owned())
+    }
 }
 
 /// The index p of a sample reflected into [0, n) about the end samples.
@@ -397,7 +474,7 @@ fn reduce_axis(
 }
 
 /// The group's `zarr.json` with the OME-Zarr 0.5 multiscales metadata.
-fn write_group(
+pub(super) fn write_group(
     store: &Arc<FilesystemStore>,
     dims: &[[usize; 3]],
     o: &PyramidOptions,
@@ -456,6 +533,39 @@ fn reduction_doc(r: Reduction) -> &'static str {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_level_reduced_in_pieces_is_the_level_reduced_whole() {
+        let n = [9, 7, 6];
+        let data: Vec<f32> = (0..n.iter().product::<usize>()).map(|i| ((i * 37 % 101) as f32) * 0.37 - 3.1).collect();
+        for r in [Reduction::Binomial, Reduction::Box, Reduction::Tent, Reduction::Subsample] {
+            let m = n.map(|x| r.next_len(x));
+            let whole = r.reduce(&data, [0; 3], n, n, [0; 3], m).unwrap();
+            for (i, &w) in whole.iter().enumerate() {
+                let lo = [i % m[0], (i / m[0]) % m[1], i / (m[0] * m[1])];
+                let (f0, f1) = r.footprint(n, lo, lo);
+                let size: [usize; 3] = std::array::from_fn(|a| f1[a] - f0[a] + 1);
+                let mut window = vec![];
+                for z in f0[2]..=f1[2] {
+                    for y in f0[1]..=f1[1] {
+                        for x in f0[0]..=f1[0] {
+                            window.push(data[x + n[0] * (y + n[1] * z)]);
+                        }
+                    }
+                }
+                let piece = r.reduce(&window, f0, size, n, lo, [1; 3]).unwrap();
+                assert_eq!(piece[0].to_bits(), w.to_bits(), "{r:?} at {lo:?}");
+                if size.iter().product::<usize>() > 1 && r != Reduction::Subsample {
+                    // A window short of the footprint is refused, never read past.
+                    let short = [size[0] - usize::from(size[0] > 1), size[1], size[2]];
+                    let cut = vec![0f32; short.iter().product()];
+                    if short != size {
+                        assert!(r.reduce(&cut, f0, short, n, lo, [1; 3]).is_err());
+                    }
+                }
+            }
+        }
+    }
 
     #[test]
     fn mirror_reflects_about_the_end_samples() {

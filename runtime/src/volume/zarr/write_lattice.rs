@@ -13,14 +13,14 @@
 //! Host memory stays at a few write units and the readers' chunk caches.
 
 use super::cosets::LatticeLayout;
-use super::write::{check_options, create_array, space_axis, store_values, unit_boxes, write_pyramid};
+use super::plan::StorePlan;
+use super::write::{check_options, space_axis, write_pyramid};
 use super::{OmeZarr, PyramidOptions, PyramidReport, Reduction, Selection, ZarrError, ZarrType, ZarrVolume};
-use crate::volume::{matched_lattice, BrickSource, Prefiltered, Resampled, VolumeError};
+use crate::volume::{BrickSource, Prefiltered, Resampled, VolumeError};
 use boxforge::derive::Derivation;
 use boxforge::spec::lattice::Lattice;
 use std::path::Path;
 use std::sync::Arc;
-use zarrs::array::ArraySubset;
 use zarrs::filesystem::FilesystemStore;
 
 /// The folder inside the output that holds the Cartesian pyramid while
@@ -60,32 +60,19 @@ pub fn write_lattice_pyramid(
             return Err(ZarrError::CoefficientType { ty: o.ty.name() }.into());
         }
     }
-    if out.exists() && std::fs::read_dir(out).map(|mut d| d.next().is_some()).unwrap_or(true) {
-        return Err(ZarrError::Exists { path: out.to_path_buf() }.into());
-    }
-    let werr = |e: &dyn std::fmt::Display| {
-        VolumeError::from(ZarrError::Write { path: out.to_path_buf(), reason: e.to_string() })
-    };
-    std::fs::create_dir_all(out).map_err(|e| werr(&e))?;
+    let prefilter = l.prefilter.map(|d| d.filter.name.clone());
+    let plan = StorePlan::new(out, source.dims(), o, Some((l.lattice, prefilter)))?;
+    plan.make_folder()?;
     let temp = out.join(CARTESIAN_PASS);
     let cartesian = PyramidOptions { ty: ZarrType::F32, ..o.clone() };
-    let report = write_pyramid(source, &temp, &cartesian, &|done, total| progress(done, 2 * total))?;
+    write_pyramid(source, &temp, &cartesian, &|done, total| progress(done, 2 * total))?;
     let image = OmeZarr::open(&temp)?;
-    let cc = Lattice::builtin("cc").map_err(|e| werr(&e))?;
-    let matched: Vec<([usize; 3], f64)> = report.levels.iter().map(|&d| matched_lattice(l.lattice, d)).collect();
-    let layout = LatticeLayout::new(
-        l.lattice,
-        matched.iter().map(|m| m.0).collect(),
-        l.prefilter.map(|d| d.filter.name.clone()),
-    )?;
-    let channels = (layout.cosets.len() > 1).then_some(layout.cosets.len());
-    let store = Arc::new(FilesystemStore::new(out).map_err(|e| werr(&e))?);
-    let unit = o.shard.unwrap_or(o.chunk);
-    let units = |d: [usize; 3]| d.iter().map(|&n| n.div_ceil(unit) as u64).product::<u64>();
-    let shapes: Vec<[usize; 3]> = layout.dims.iter().map(|&d| layout.coset_shape(d)).collect();
-    let total: u64 = shapes.iter().map(|&s| units(s)).sum();
+    let cc = Lattice::builtin("cc").map_err(|e| ZarrError::Write { path: out.to_path_buf(), reason: e.to_string() })?;
+    plan.create()?;
+    let levels = plan.cartesian_levels().len();
+    let total: u64 = (0..levels).map(|k| plan.unit_boxes(k).count() as u64).sum();
     let mut done = 0u64;
-    for (k, (&dims, &shape)) in layout.dims.iter().zip(&shapes).enumerate() {
+    for k in 0..levels {
         let level = ZarrVolume::new(&image, Selection { level: k, ..Selection::default() }, &cc)?;
         let resampled;
         let on_lattice: &dyn BrickSource = if l.lattice.det() == 1 {
@@ -102,62 +89,22 @@ pub fn write_lattice_pyramid(
             }
             None => on_lattice,
         };
-        let array = create_array(&store, k, shape, channels, o).map_err(|e| werr(&e))?;
-        for lo in unit_boxes(shape, unit) {
-            let hi: [usize; 3] = std::array::from_fn(|a| (lo[a] + unit).min(shape[a]) - 1);
-            let values = coset_values(samples, &layout, dims, lo, hi)?;
-            let mut ranges: Vec<std::ops::Range<u64>> = channels.map(|c| 0..c as u64).into_iter().collect();
-            ranges.extend([2, 1, 0].map(|a| lo[a] as u64..hi[a] as u64 + 1));
-            store_values(&array, &ArraySubset::new_with_ranges(&ranges), &values, o.ty).map_err(|e| werr(&e))?;
+        for lo in plan.unit_boxes(k) {
+            plan.write_unit(k, samples, lo)?;
             done += 1;
             progress(total + done, 2 * total);
         }
     }
-    write_lattice_group(&store, &layout, &matched, channels, o).map_err(|e| werr(&e))?;
+    let report = plan.finish()?;
     drop(image);
-    std::fs::remove_dir_all(&temp).map_err(|e| werr(&e))?;
-    Ok(PyramidReport { levels: layout.dims })
-}
-
-/// The coset grid box [lo, hi] (inclusive, x fastest) of every channel,
-/// channel slowest: one read of the lattice box it covers.
-fn coset_values(
-    samples: &dyn BrickSource,
-    layout: &LatticeLayout,
-    dims: [usize; 3],
-    lo: [usize; 3],
-    hi: [usize; 3],
-) -> Result<Vec<f32>, VolumeError> {
-    let p = layout.period;
-    let first: [usize; 3] = std::array::from_fn(|a| p[a] * lo[a]);
-    let last: [usize; 3] = std::array::from_fn(|a| (p[a] * hi[a] + p[a] - 1).min(dims[a] - 1));
-    let size: [usize; 3] = std::array::from_fn(|a| last[a] - first[a] + 1);
-    let mut box_values = vec![0f32; size.iter().product()];
-    samples.read_box(first.map(|x| x as i64), size, &mut box_values)?;
-    let count: [usize; 3] = std::array::from_fn(|a| hi[a] - lo[a] + 1);
-    let mut values = Vec::with_capacity(layout.cosets.len() * count.iter().product::<usize>());
-    for r in &layout.cosets {
-        for z in lo[2]..=hi[2] {
-            for y in lo[1]..=hi[1] {
-                for x in lo[0]..=hi[0] {
-                    let q = [p[0] * x + r[0], p[1] * y + r[1], p[2] * z + r[2]];
-                    values.push(if (0..3).all(|a| q[a] < dims[a]) {
-                        let b: [usize; 3] = std::array::from_fn(|a| q[a] - first[a]);
-                        box_values[b[0] + size[0] * (b[1] + size[1] * b[2])]
-                    } else {
-                        0.0
-                    });
-                }
-            }
-        }
-    }
-    Ok(values)
+    std::fs::remove_dir_all(&temp).map_err(|e| ZarrError::Write { path: out.to_path_buf(), reason: e.to_string() })?;
+    Ok(report)
 }
 
 /// The group's `zarr.json`: OME-Zarr 0.5 multiscales over (c, z, y, x)
 /// (or (z, y, x) for one coset) with each level's coset-grid scale and the
 /// position of lattice point 0, and the `boxforge` layout attribute.
-fn write_lattice_group(
+pub(super) fn write_lattice_group(
     store: &Arc<FilesystemStore>,
     layout: &LatticeLayout,
     matched: &[([usize; 3], f64)],
