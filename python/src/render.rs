@@ -92,6 +92,7 @@ fn lattice_volume(samples: &PyReadonlyArray3<'_, f32>, d: &Derivation, conversio
     let s = samples.shape();
     let dims = [s[2], s[1], s[0]];
     let data = samples.as_slice().map_err(|_| value_error("samples: the array is not C-contiguous"))?.to_vec();
+    crate::volume::finite(&data, dims, "render")?;
     let lattice = d.filter.lattice.clone();
     match conversion {
         "lattice" => Ok(LatticeVolume { lattice, dims, data }),

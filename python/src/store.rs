@@ -87,6 +87,7 @@ pub(crate) fn write_store(
     let ty = type_named(dtype)?;
     let s = a.shape();
     let data = a.as_slice().map_err(|_| PyValueError::new_err("to_ome_zarr: the array is not C-contiguous"))?.to_vec();
+    crate::volume::finite(&data, [s[2], s[1], s[0]], "to_ome_zarr")?;
     let source = LatticeVolume { lattice: lattice_named("cc")?, dims: [s[2], s[1], s[0]], data };
     let options = PyramidOptions {
         chunk,
@@ -268,6 +269,7 @@ impl PyStorePlan {
         let s = block.shape();
         let size = [s[2], s[1], s[0]];
         let data = block.as_slice().map_err(|_| PyValueError::new_err("write: the block is not C-contiguous"))?;
+        crate::volume::finite(data, size, "to_ome_zarr")?;
         py.detach(|| self.plan.write_block(level, data, [origin.2, origin.1, origin.0], size)).map_err(value_error)
     }
 

@@ -46,7 +46,25 @@ fn samples<'a>(a: &'a PyReadonlyArray3<'_, f32>, what: &str) -> PyResult<(&'a [f
             "{what}: the array is not C-contiguous; pass numpy.ascontiguousarray(a, dtype=numpy.float32)"
         ))
     })?;
-    Ok((data, [s[2], s[1], s[0]]))
+    let size = [s[2], s[1], s[0]];
+    finite(data, size, what)?;
+    Ok((data, size))
+}
+
+/// Refuses NaN and infinite samples, naming the first (a filter would
+/// spread it over its whole support: garbage, not an answer).
+pub(crate) fn finite(data: &[f32], size: [usize; 3], what: &str) -> PyResult<()> {
+    match data.iter().position(|v| !v.is_finite()) {
+        None => Ok(()),
+        Some(i) => {
+            let (x, y, z) = (i % size[0], (i / size[0]) % size[1], i / (size[0] * size[1]));
+            Err(PyValueError::new_err(format!(
+                "{what}: sample (z, y, x) = ({z}, {y}, {x}) is {}: replace NaN and infinite samples first \
+                 (e.g. numpy.nan_to_num)",
+                data[i]
+            )))
+        }
+    }
 }
 
 /// The lattice box a Cartesian volume of `shape` (z, y, x) is resampled

@@ -81,6 +81,17 @@ def test_prefilter_is_the_reported_taps_convolution(volume, spec, lattice):
     np.testing.assert_allclose(got, numpy_prefilter(samples, taps, lattice), rtol=1e-5, atol=1e-4)
 
 
+def test_nan_samples_are_refused_naming_the_first_not_spread(volume, tmp_path):
+    bad = volume.copy()
+    bad[3, 4, 5] = np.nan
+    bad[6, 1, 1] = np.inf
+    for call in (lambda: boxforge.prefilter(bad, "cc_tricubic"), lambda: boxforge.resample(bad, "bcc"),
+                 lambda: boxforge.to_ome_zarr(bad, tmp_path / "nan.zarr"),
+                 lambda: boxforge.render(bad, "cc_trilinear", iso=0.5, size=8)):
+        with pytest.raises(ValueError, match=r"\(z, y, x\) = \(3, 4, 5\) is NaN"):
+            call()
+
+
 def test_bad_arrays_are_a_value_error_naming_the_problem(volume):
     with pytest.raises(ValueError, match="3D array"):
         boxforge.prefilter(volume[0], "bcc7")
