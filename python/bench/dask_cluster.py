@@ -7,9 +7,10 @@ timed, and each worker's peak memory measured.
     python python/bench/dask_cluster.py [--sizes 256,512] [--chunks 32,64,96]
         [--workers 1,2] [--out DIR] [--cli target/release/boxforge]
 
-The volume is made by the workers chunk by chunk (a closed-form smooth
-signal evaluated at each chunk's coordinates, no array in the task graph),
-so a worker's memory holds chunks, never the volume. Each worker's resident
+The volume (a closed-form smooth signal) is written once as a raw float32
+file, which the workers read chunk by chunk with pread (as `da.from_zarr`
+reads a store: nothing of the volume in the task graph, no memory map), so
+a worker's memory holds chunks, never the volume. Each worker's resident
 set is sampled every 20 ms from outside (psutil on its process): the peak
 above its idle size before the run. Prints one Markdown table row per run
 and writes the rows as JSON to OUT/dask_cluster.json.
@@ -27,6 +28,7 @@ import sys
 import threading
 import time
 
+import dask
 import dask.array as da
 import numpy as np
 import psutil
@@ -49,19 +51,35 @@ def signal_block(block_info=None):
     return v.astype(np.float32)
 
 
-def volume(n: int, chunk: int) -> da.Array:
-    return da.map_blocks(signal_block, dtype=np.float32, chunks=da.core.normalize_chunks(chunk, (n, n, n)),
-                         meta=np.empty((0, 0, 0), np.float32))
-
-
 def write_raw(n: int, path: str) -> None:
-    """The same signal as a raw file for the CLI, written slab by slab."""
-    mm = np.memmap(path, dtype=np.float32, mode="w+", shape=(n, n, n))
-    v = volume(n, 64)
-    for z in range(0, n, 64):
-        mm[z:z + 64] = v[z:z + 64].compute(scheduler="sync")
-    mm.flush()
-    del mm
+    """The signal as a raw float32 file (z, y, x), written slab by slab."""
+    v = da.map_blocks(signal_block, dtype=np.float32, chunks=da.core.normalize_chunks(64, (n, n, n)),
+                      meta=np.empty((0, 0, 0), np.float32))
+    with open(path, "wb") as f:
+        for z in range(0, n, 64):
+            f.write(v[z:z + 64].compute(scheduler="sync").tobytes())
+
+
+def read_block(path: str, n: int, block_info=None) -> np.ndarray:
+    """A chunk of the raw file, read with pread (no memory map: a worker's
+    resident set holds the chunk, not the pages of the file it touched)."""
+    (z0, z1), (y0, y1), (x0, x1) = block_info[None]["array-location"]
+    out = np.empty((z1 - z0, y1 - y0, x1 - x0), np.float32)
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        for z in range(z0, z1):
+            rows = os.pread(fd, (y1 - y0) * n * 4, ((z * n) + y0) * n * 4)
+            out[z - z0] = np.frombuffer(rows, np.float32).reshape(y1 - y0, n)[:, x0:x1]
+    finally:
+        os.close(fd)
+    return out
+
+
+def volume(path: str, n: int, chunk: int) -> da.Array:
+    """The raw file as a dask array read chunk by chunk by the workers (as
+    `da.from_zarr` reads a store): nothing of the volume in the graph."""
+    return da.map_blocks(read_block, path, n, dtype=np.float32, chunks=da.core.normalize_chunks(chunk, (n, n, n)),
+                         meta=np.empty((0, 0, 0), np.float32))
 
 
 def free_port() -> int:
@@ -149,7 +167,7 @@ def same_store(a: str, b: str) -> bool:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--sizes", default="256,512")
-    ap.add_argument("--chunks", default="32,64,96", help="store chunk edges (each task's block is twice that on BCC)")
+    ap.add_argument("--chunks", default="64,96,128", help="store chunk edges (each task's block is twice that on BCC)")
     ap.add_argument("--workers", default="2")
     ap.add_argument("--scaling", default="512:64", help="SIZE:CHUNK run with 1 and 2 workers ('' to skip)")
     ap.add_argument("--check", default="512:64", help="SIZE:CHUNK compared byte for byte with the CLI ('' to skip)")
@@ -163,29 +181,31 @@ def main() -> None:
         n, c = map(int, a.scaling.split(":"))
         runs += [(n, c, w) for w in (1, 2) if (n, c, w) not in runs]
     rows = []
-    print("| volume | store chunk | task block | workers | wall (s) | tasks | peak RSS above idle per worker (MiB) | = CLI |")
-    print("|---|---|---|---|---|---|---|---|")
+    print("| volume | store chunk | workers | wall (s) | tasks | peak RSS above idle per worker (MiB) | = CLI |")
+    print("|---|---|---|---|---|---|---|")
     for n, c, w in runs:
         store = os.path.join(a.out, f"dask-{n}-{c}-{w}.zarr")
         shutil.rmtree(store, ignore_errors=True)
+        raw = os.path.join(a.out, f"v{n}.raw")
+        if not os.path.exists(raw):
+            write_raw(n, raw)
         cluster = Cluster(w, a.out)
         try:
-            x = volume(n, 2 * c)
-            plan, writes = bd.to_ome_zarr(x, store, "bcc7", chunk=c, compute=False)
-            tasks = len(writes.__dask_graph__())
+            x = volume(os.path.abspath(raw), n, 2 * c)
             rss = PeakRss([p.pid for p in cluster.workers])
             t = time.perf_counter()
-            cluster.client.compute(writes).result()
-            plan.finish()
+            plan = bd._boxforge.StorePlan(os.path.abspath(store), (n, n, n), prefilter="bcc7", chunk=c)
+            stages = bd.store_stages(x, plan)
+            # The tasks the scheduler runs: each stage's graph after dask's optimisation (culled, fused).
+            tasks = sum(len(dict(dask.optimize(*stage)[0].__dask_graph__())) if len(stage) == 1 else len(stage)
+                        for stage in stages)
+            levels = bd.to_ome_zarr(x, store, "bcc7", chunk=c)
             wall = time.perf_counter() - t
             peaks = rss.done()
         finally:
             cluster.close()
         same = ""
         if a.check and (n, c) == tuple(map(int, a.check.split(":"))) and a.cli:
-            raw = os.path.join(a.out, f"v{n}.raw")
-            if not os.path.exists(raw):
-                write_raw(n, raw)
             cli_store = os.path.join(a.out, f"cli-{n}-{c}.zarr")
             if not os.path.exists(cli_store):
                 t0 = time.perf_counter()
@@ -193,12 +213,12 @@ def main() -> None:
                                 "--prefilter", "bcc7", "--chunk", str(c)], check=True, stdout=subprocess.DEVNULL,
                                stderr=subprocess.DEVNULL)
                 rows.append(dict(cli=True, volume=n, chunk=c, wall=time.perf_counter() - t0))
-                print(f"| {n}^3 | {c} | (CLI convert, one process, all cores) | - | {rows[-1]['wall']:.1f} | - | - | - |")
+                print(f"| {n}^3 | {c} | (CLI convert, one process, all cores) | {rows[-1]['wall']:.1f} | - | - | - |")
             same = "yes" if same_store(store, cli_store) else "NO"
-        row = dict(volume=n, chunk=c, block=2 * c, workers=w, wall=wall, tasks=tasks,
+        row = dict(volume=n, chunk=c, workers=w, wall=wall, tasks=tasks,
                    peak_mib=[p / 2**20 for p in peaks], same_as_cli=same)
         rows.append(row)
-        print(f"| {n}^3 | {c} | {2 * c}^3 | {w} | {wall:.1f} | {tasks} | "
+        print(f"| {n}^3 | {c} | {w} | {wall:.1f} | {tasks} | "
               f"{', '.join(f'{p:.0f}' for p in row['peak_mib'])} | {same or '-'} |", flush=True)
         shutil.rmtree(store, ignore_errors=True)
     with open(os.path.join(a.out, "dask_cluster.json"), "w") as f:

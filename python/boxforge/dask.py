@@ -12,20 +12,22 @@ bit for bit, seams included.
   trilinear stencil) from the input.
 - :func:`reduce` makes the next pyramid level the same way (its box
   doubled plus the reduction's taps).
-- :func:`to_ome_zarr` writes the store ``boxforge convert`` writes: the
-  pyramid by :func:`reduce`, each level resampled and prefiltered, each
-  store write unit (chunk or shard) written by the task that computed it,
-  straight from the workers (the store's path must be one they all see),
-  the metadata last.
+- :func:`to_ome_zarr` writes the store ``boxforge convert`` writes, the
+  same bytes, one task per store write unit (chunk or shard), each reading
+  its footprint of the level it is made from out of the store being
+  written and writing its unit straight from the worker (the path must be
+  one they all see), the metadata last; :func:`store_stages` is that work
+  as Dask collections.
 
 Arrays are ``(z, y, x)``, float32 in and out.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 import os
-from typing import Any, Optional, Tuple
+from typing import Any, List, Optional, Tuple
 
 import dask
 import dask.array as da
@@ -33,7 +35,7 @@ import numpy as np
 
 from . import _boxforge, _spec_text
 
-__all__ = ["prefilter", "reduce", "resample", "to_ome_zarr"]
+__all__ = ["prefilter", "reduce", "resample", "store_stages", "to_ome_zarr"]
 
 
 def _starts(chunks: Tuple[int, ...]) -> list:
@@ -171,87 +173,82 @@ def reduce(volume: da.Array, reduction: str = "box", chunks: Optional[Any] = Non
         f1 = tuple(min(n[a], 2 * (lo[a] + size[a] - 1) + 3) for a in range(3))
         return f0, f1
 
-    def task(piece, f0, lo, size):
-        return _reduce_block(piece, f0, lo, size, reduction, n)
-
-    return _footprint_tasks(x, out_shape, out_chunks, reach, task)
+    return _footprint_tasks(x, out_shape, out_chunks, reach, functools.partial(_reduce_block, reduction=reduction,
+                                                                                 shape=n))
 
 
-def _write_block(block: np.ndarray, plan, level: int, block_info=None) -> np.ndarray:
+def _write_cartesian(block: np.ndarray, plan, block_info=None) -> np.ndarray:
     loc = block_info[0]["array-location"]
-    plan.write(level, np.ascontiguousarray(block, dtype=np.float32), tuple(r[0] for r in loc))
+    plan.write_cartesian(np.ascontiguousarray(block, dtype=np.float32), tuple(r[0] for r in loc))
     return np.zeros((1, 1, 1), np.uint8)
+
+
+def _write_reduced(plan, level: int, unit: int) -> None:
+    plan.write_reduced(level, unit)
+
+
+def _write_lattice(plan, level: int, unit: int) -> None:
+    plan.write_lattice(level, unit)
+
+
+def store_stages(volume: Any, plan) -> List[List[Any]]:
+    """The work of writing ``plan``'s store from ``volume``, in stages that
+    run one after the other (each reads what the one before it wrote), each
+    a list of Dask collections: level 0 of the Cartesian pyramid from the
+    volume, in write units; then each coarser level, one task per write
+    unit reading its footprint of the level before it from the store; then,
+    for a lattice store, every lattice unit, one task each, reading its
+    footprint of the Cartesian level (resampled and prefiltered in the
+    task). Tasks pass nothing to each other but the store, so a worker
+    holds one unit and its footprint at a time, whatever the volume."""
+    x = _as_volume(volume, "to_ome_zarr")
+    if tuple(x.shape) != tuple(plan.cartesian_levels[0]):
+        raise ValueError(f"to_ome_zarr: the volume's shape {x.shape} is not the plan's {plan.cartesian_levels[0]}")
+    first = x.rechunk(plan.cartesian_block).map_blocks(_write_cartesian, plan=plan, dtype=np.uint8, chunks=(1, 1, 1),
+                                                        meta=np.empty((0, 0, 0), np.uint8))
+    stages: List[List[Any]] = [[first]]
+    for k in range(1, len(plan.cartesian_levels)):
+        stages.append([dask.delayed(_write_reduced, pure=False)(plan, k, i)
+                       for i in range(plan.unit_count(k, cartesian=True))])
+    if plan.lattice is not None:
+        stages.append([dask.delayed(_write_lattice, pure=False)(plan, k, i)
+                       for k in range(len(plan.levels)) for i in range(plan.unit_count(k))])
+    return stages
 
 
 def to_ome_zarr(volume: Any, path: Any, spec: Any = None, *, lattice: Optional[str] = None, chunk: int = 64,
                 shard: Optional[int] = None, levels: Optional[int] = None, reduction: str = "box",
                 dtype: Optional[str] = None, spacing: Tuple[float, float, float] = (1.0, 1.0, 1.0),
-                unit: Optional[str] = None, compute: bool = True):
-    """Writes the Cartesian ``volume`` (z, y, x) at ``path`` as the OME-Zarr
-    pyramid ``boxforge convert`` writes with the same options: with
-    ``spec``, each level resampled on the spec's lattice (or ``lattice``)
-    and prefiltered for it (``--lattice L --prefilter SPEC``); with
-    ``lattice`` alone, resampled only; with neither, the Cartesian samples.
-    The same bytes as the CLI's store, chunk for chunk.
+                unit: Optional[str] = None) -> List[Tuple[int, int, int]]:
+    """Writes the Cartesian ``volume`` (z, y, x; a Dask array, or anything
+    ``dask.array.asarray`` takes) at ``path`` as the OME-Zarr pyramid
+    ``boxforge convert`` writes with the same options: with ``spec``, each
+    level resampled on the spec's lattice (or ``lattice``) and prefiltered
+    for it (``--lattice L --prefilter SPEC``); with ``lattice`` alone,
+    resampled only; with neither, the Cartesian samples. The same bytes as
+    the CLI's store, file for file: every unit goes through the same Rust
+    code (``StorePlan``) as ``convert``'s.
 
-    Each store write unit is written by the task that computes it, so
-    ``path`` must be a folder every worker sees (a shared file system on a
-    multi-machine cluster). The store is complete (its metadata written)
-    when the returned levels come back. ``compute=False`` returns
-    ``(plan, writes)``: the unstarted Dask array of writes (compute it,
-    then call ``plan.finish()``).
+    The work runs on the current Dask scheduler (a ``distributed.Client``'s
+    cluster if one is active) in the stages of :func:`store_stages`, each
+    write unit written by the task that computed it, so ``path`` must be a
+    folder every worker sees (a shared file system on a multi-machine
+    cluster). The store is complete (its metadata written, a lattice
+    store's hidden Cartesian pass removed) when the levels come back:
+    each level's stored samples (z, y, x).
     """
     x = _as_volume(volume, "to_ome_zarr")
     filter_spec = _spec_text(spec) if spec is not None else None
     plan = _boxforge.StorePlan(os.fspath(path), tuple(x.shape), lattice=lattice, prefilter=filter_spec, chunk=chunk,
                                shard=shard, levels=levels, reduction=reduction, dtype=dtype,
                                spacing=tuple(float(s) for s in spacing), unit=unit)
-    store_lattice = plan.lattice
-    resampled_lattice = store_lattice if store_lattice not in (None, "cc") else None
-    writes = []
-    level = x
-    for k, cart in enumerate(plan.cartesian_levels):
-        if k > 0:
-            # convert reduces each level from the one it stored: integer
-            # samples rounded as the store rounds them.
-            stored = level if store_lattice is not None or dtype in (None, "float32") else _rounded(level, dtype)
-            level = reduce(stored, reduction, chunks=plan.block)
-        assert tuple(level.shape) == tuple(cart), (level.shape, cart)
-        # Every pass in the store's blocks (one write unit each), so each
-        # block is computed, prefiltered and written without a rechunk.
-        samples = level if resampled_lattice is not None else level.rechunk(plan.block)
-        if resampled_lattice is not None:
-            samples = resample(samples, resampled_lattice, chunks=plan.block)
-        if filter_spec is not None:
-            samples = prefilter(samples, filter_spec)
-        assert tuple(samples.shape) == tuple(plan.levels[k]), (samples.shape, plan.levels[k])
-        blocks = samples if samples.chunksize == tuple(min(b, n) for b, n in zip(plan.block, samples.shape)) \
-            else samples.rechunk(plan.block)
-        writes.append(blocks.map_blocks(_write_block, plan=plan, level=k, dtype=np.uint8, chunks=(1, 1, 1),
-                                        meta=np.empty((0, 0, 0), np.uint8)).ravel())
+    stages = store_stages(x, plan)
     plan.create()
-    done = da.concatenate(writes)
-    if not compute:
-        return plan, done
-    done.compute()
+    for k, stage in enumerate(stages):
+        dask.compute(*stage)
+        if plan.lattice is not None and k == len(plan.cartesian_levels) - 1:
+            plan.finish_cartesian()
     return plan.finish()
-
-
-_RANGES = {"uint8": (0.0, 255.0), "uint16": (0.0, 65535.0), "int16": (-32768.0, 32767.0)}
-
-
-def _round_block(b: np.ndarray, lo: float, hi: float) -> np.ndarray:
-    # Rust's f32::round (half away from zero), exactly: x - trunc(x) is exact.
-    t = np.trunc(b)
-    r = t + np.where(np.abs(b - t) >= 0.5, np.sign(b), 0).astype(np.float32)
-    return np.clip(r, lo, hi).astype(np.float32)
-
-
-def _rounded(x: da.Array, dtype: str) -> da.Array:
-    if dtype not in _RANGES:
-        raise ValueError(f"dtype {dtype!r}: use float32, uint8, uint16 or int16")
-    lo, hi = _RANGES[dtype]
-    return x.map_blocks(_round_block, lo, hi, dtype=np.float32)
 
 
 def _as_volume(a: Any, what: str) -> da.Array:

@@ -1,4 +1,4 @@
-from typing import Any, List, Optional, Tuple, Union
+from typing import Any, List, Optional, Tuple
 
 import dask.array as da
 
@@ -20,5 +20,5 @@ def to_ome_zarr(
     dtype: Optional[str] = None,
     spacing: Tuple[float, float, float] = (1.0, 1.0, 1.0),
     unit: Optional[str] = None,
-    compute: bool = True,
-) -> Union[List[Tuple[int, int, int]], Tuple[StorePlan, da.Array]]: ...
+) -> List[Tuple[int, int, int]]: ...
+def store_stages(volume: Any, plan: StorePlan) -> List[List[Any]]: ...

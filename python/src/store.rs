@@ -160,6 +160,23 @@ pub(crate) struct PyStorePlan {
     args: PlanArgs,
 }
 
+impl PyStorePlan {
+    /// The plan of the Cartesian pyramid the store is made from: its pass, or itself.
+    fn cartesian(&self) -> PyResult<StorePlan> {
+        Ok(self.plan.cartesian_pass().unwrap_or_else(|| self.plan.clone()))
+    }
+}
+
+/// The low corner of write unit `i` of level `level` (z slowest).
+fn nth_unit(plan: &StorePlan, level: usize, i: usize) -> PyResult<[usize; 3]> {
+    if level >= plan.cartesian_levels().len() {
+        return Err(PyValueError::new_err(format!("level {level}: the store has {} levels", plan.levels().len())));
+    }
+    plan.unit_boxes(level).nth(i).ok_or_else(|| {
+        PyValueError::new_err(format!("unit {i}: level {level} has {} units", plan.unit_boxes(level).count()))
+    })
+}
+
 #[pymethods]
 impl PyStorePlan {
     #[new]
@@ -248,15 +265,6 @@ impl PyStorePlan {
         self.plan.reduction().name()
     }
 
-    /// Makes the output folder (it must not exist, or be empty) and the levels' arrays.
-    fn create(&self, py: Python<'_>) -> PyResult<()> {
-        py.detach(|| {
-            self.plan.make_folder()?;
-            self.plan.create()
-        })
-        .map_err(value_error)
-    }
-
     /// Writes level `level`'s block at `origin` (z, y, x): one write unit's
     /// samples box, whole (see `block`).
     fn write(
@@ -273,9 +281,91 @@ impl PyStorePlan {
         py.detach(|| self.plan.write_block(level, data, [origin.2, origin.1, origin.0], size)).map_err(value_error)
     }
 
+    /// The write units of Cartesian level `level` (`cartesian=True`: of the
+    /// Cartesian pyramid the store is made from, a lattice store's hidden
+    /// pass) or of the stored level: how many there are.
+    #[pyo3(signature = (level, cartesian = false))]
+    fn unit_count(&self, level: usize, cartesian: bool) -> PyResult<usize> {
+        let plan = if cartesian { self.cartesian()? } else { self.plan.clone() };
+        if level >= plan.cartesian_levels().len() {
+            return Err(PyValueError::new_err(format!("level {level}: the store has {} levels", plan.levels().len())));
+        }
+        Ok(plan.unit_boxes(level).count())
+    }
+
+    /// The edge (z, y, x) of the Cartesian block one write unit of the
+    /// Cartesian pyramid holds (level 0 is written in such blocks).
+    #[getter]
+    fn cartesian_block(&self) -> (usize, usize, usize) {
+        let u = self.plan.unit();
+        (u, u, u)
+    }
+
+    /// Makes the output folder (it must not exist, or be empty), the levels'
+    /// arrays and, for a lattice store, its Cartesian pass's.
+    fn create(&self, py: Python<'_>) -> PyResult<()> {
+        py.detach(|| {
+            self.plan.make_folder()?;
+            self.plan.create()?;
+            if let Some(pass) = self.plan.cartesian_pass() {
+                pass.make_folder()?;
+                pass.create()?;
+            }
+            Ok::<(), boxforge_runtime::volume::VolumeError>(())
+        })
+        .map_err(value_error)
+    }
+
+    /// Writes Cartesian level 0's block at `origin` (z, y, x; a write unit
+    /// of the Cartesian pyramid, whole, see `cartesian_block`).
+    fn write_cartesian(
+        &self,
+        py: Python<'_>,
+        block: PyReadonlyArray3<'_, f32>,
+        origin: (usize, usize, usize),
+    ) -> PyResult<()> {
+        let plan = self.cartesian()?;
+        let s = block.shape();
+        let size = [s[2], s[1], s[0]];
+        let data = block.as_slice().map_err(|_| PyValueError::new_err("write: the block is not C-contiguous"))?;
+        crate::volume::finite(data, size, "to_ome_zarr")?;
+        py.detach(|| plan.write_block(0, data, [origin.2, origin.1, origin.0], size)).map_err(value_error)
+    }
+
+    /// Writes unit `unit` of Cartesian level `level` >= 1, reduced from the
+    /// level before it as stored (every unit of that level written first).
+    fn write_reduced(&self, py: Python<'_>, level: usize, unit: usize) -> PyResult<()> {
+        let plan = self.cartesian()?;
+        let lo = nth_unit(&plan, level, unit)?;
+        py.detach(|| plan.write_reduced_unit(level, lo)).map_err(value_error)
+    }
+
+    /// Writes the Cartesian pass's group metadata (every level written):
+    /// the lattice levels can be made from it.
+    fn finish_cartesian(&self, py: Python<'_>) -> PyResult<()> {
+        if let Some(pass) = self.plan.cartesian_pass() {
+            py.detach(|| pass.finish()).map_err(value_error)?;
+        }
+        Ok(())
+    }
+
+    /// Writes unit `unit` of lattice level `level` from the finished
+    /// Cartesian pass: resampled, prefiltered, as cosets.
+    fn write_lattice(&self, py: Python<'_>, level: usize, unit: usize) -> PyResult<()> {
+        let lo = nth_unit(&self.plan, level, unit)?;
+        let derivation = self.args.3.as_deref().map(|p| crate::spec::derivation_of(py, p)).transpose()?;
+        py.detach(|| self.plan.write_lattice_unit(level, lo, derivation.as_deref())).map_err(value_error)
+    }
+
     /// Writes the group's metadata: the store is complete. Returns each level's samples (z, y, x).
     fn finish(&self, py: Python<'_>) -> PyResult<Vec<(usize, usize, usize)>> {
-        let report = py.detach(|| self.plan.finish()).map_err(value_error)?;
+        let report = py
+            .detach(|| {
+                let report = self.plan.finish()?;
+                self.plan.remove_cartesian_pass()?;
+                Ok::<_, boxforge_runtime::volume::VolumeError>(report)
+            })
+            .map_err(value_error)?;
         Ok(report.levels.iter().map(|d| (d[2], d[1], d[0])).collect())
     }
 }

@@ -137,6 +137,18 @@ def test_stores_from_odd_chunks_are_converts_bytes(tmp_path, cli, options, flags
     assert_same_store(tmp_path / "dask.zarr", tmp_path / "cli.zarr")
 
 
+def test_reduce_by_odd_chunks_is_the_level_convert_stores(tmp_path, cli):
+    volume = smooth_volume((21, 30, 19), seed=7)
+    raw = tmp_path / "v.raw"
+    volume.tofile(raw)
+    for reduction in ("box", "binomial"):
+        store = tmp_path / f"{reduction}.zarr"
+        cli("convert", raw, store, "--raw", "19,30,21,f32", "--chunk", "8", "--levels", "2", "--reduction", reduction)
+        level1 = boxforge.open(store, level=1).samples
+        got = bd.reduce(da.from_array(volume, chunks=(5, 7, 4)), reduction, chunks=(3, 4, 5))
+        assert np.array_equal(got.compute(scheduler="threads"), level1), reduction
+
+
 def test_a_store_plan_pickles_and_refuses_blocks_that_are_not_write_units(tmp_path):
     plan = boxforge._boxforge.StorePlan(str(tmp_path / "s.zarr"), (20, 20, 20), prefilter="bcc7", chunk=8)
     again = pickle.loads(pickle.dumps(plan))

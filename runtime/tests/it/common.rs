@@ -50,3 +50,21 @@ pub fn ripple_volume(dims: [usize; 3]) -> boxforge_runtime::volume::Volume {
     }
     boxforge_runtime::volume::Volume::new(dims, data).unwrap()
 }
+
+/// Every file of a store (its path inside) and its bytes.
+pub fn store_files(root: &std::path::Path) -> Vec<(std::path::PathBuf, Vec<u8>)> {
+    let mut out = vec![];
+    let mut folders = vec![root.to_path_buf()];
+    while let Some(dir) = folders.pop() {
+        for entry in std::fs::read_dir(&dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                folders.push(path);
+            } else {
+                out.push((path.strip_prefix(root).unwrap().to_path_buf(), std::fs::read(&path).unwrap()));
+            }
+        }
+    }
+    out.sort();
+    out
+}

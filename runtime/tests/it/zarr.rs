@@ -155,24 +155,6 @@ fn binomial_3d(fine: &[f32], n: [usize; 3]) -> (Vec<f64>, [usize; 3]) {
     (out, m)
 }
 
-/// Every file of a store (its path inside) and its bytes.
-fn store_files(root: &Path) -> Vec<(PathBuf, Vec<u8>)> {
-    let mut out = vec![];
-    let mut folders = vec![root.to_path_buf()];
-    while let Some(dir) = folders.pop() {
-        for entry in std::fs::read_dir(&dir).unwrap() {
-            let path = entry.unwrap().path();
-            if path.is_dir() {
-                folders.push(path);
-            } else {
-                out.push((path.strip_prefix(root).unwrap().to_path_buf(), std::fs::read(&path).unwrap()));
-            }
-        }
-    }
-    out.sort();
-    out
-}
-
 #[test]
 fn written_pyramids_hold_the_source_and_its_binomial_reduction() {
     let dims = [13, 10, 9];
@@ -194,7 +176,11 @@ fn written_pyramids_hold_the_source_and_its_binomial_reduction() {
         // order, not in the order parallel encoders finish).
         let again = out.with_file_name("again.zarr");
         write_pyramid(&source, &again, &o, &|_, _| {}).unwrap();
-        assert_eq!(store_files(&out), store_files(&again), "two writes differ ({shard:?})");
+        assert_eq!(
+            crate::common::store_files(&out),
+            crate::common::store_files(&again),
+            "two writes differ ({shard:?})"
+        );
         let image = OmeZarr::open(&out).unwrap();
         let level = |k| ZarrVolume::new(&image, Selection { level: k, ..Default::default() }, &cc()).unwrap();
         let l0 = read_all(&level(0));

@@ -13,7 +13,8 @@ use boxforge::spec::lattice::Lattice;
 use boxforge_runtime::prefilter::prefilter_cpu;
 use boxforge_runtime::scene::{from_cartesian, Conversion};
 use boxforge_runtime::volume::zarr::{
-    write_lattice_pyramid, write_pyramid, LatticeOptions, OmeZarr, PyramidOptions, Selection, ZarrType, ZarrVolume,
+    write_lattice_pyramid, write_pyramid, LatticeOptions, OmeZarr, PyramidOptions, Selection, StorePlan, ZarrType,
+    ZarrVolume,
 };
 use boxforge_runtime::volume::{BrickSource, LatticeVolume};
 use std::path::{Path, PathBuf};
@@ -32,6 +33,50 @@ fn lattice(name: &str) -> Lattice {
 
 fn bits(v: &[f32]) -> Vec<u32> {
     v.iter().map(|x| x.to_bits()).collect()
+}
+
+/// A lattice store written unit by unit, each level's units in reverse
+/// order, through its `StorePlan` (as the Dask workers of the Python package
+/// write it), is `write_lattice_pyramid`'s store byte for byte.
+#[test]
+fn a_store_written_unit_by_unit_in_any_order_is_the_whole_writers() {
+    let dir = temp("units");
+    let vol = crate::common::ripple_volume([13, 11, 9]);
+    let source = LatticeVolume::subset(&lattice("cc"), &vol).unwrap();
+    let l = lattice("bcc");
+    let d = Derivation::new(&boxforge::spec::resolve("bcc7").unwrap()).unwrap();
+    let o = PyramidOptions { chunk: 4, levels: Some(3), ty: ZarrType::F32, ..PyramidOptions::default() };
+    let whole = dir.join("whole.zarr");
+    write_lattice_pyramid(&source, &whole, &o, LatticeOptions { lattice: &l, prefilter: Some(&d) }, &|_, _| {})
+        .unwrap();
+    let store = dir.join("units.zarr");
+    let plan = StorePlan::new(&store, [13, 11, 9], &o, Some((&l, Some("bcc7".to_string())))).unwrap();
+    let pass = plan.cartesian_pass().unwrap();
+    plan.make_folder().unwrap();
+    plan.create().unwrap();
+    pass.make_folder().unwrap();
+    pass.create().unwrap();
+    for lo in pass.unit_boxes(0).collect::<Vec<_>>().into_iter().rev() {
+        pass.write_unit(0, &source, lo).unwrap();
+    }
+    for k in 1..3 {
+        for lo in pass.unit_boxes(k).collect::<Vec<_>>().into_iter().rev() {
+            pass.write_reduced_unit(k, lo).unwrap();
+        }
+    }
+    pass.finish().unwrap();
+    for k in (0..3).rev() {
+        for lo in plan.unit_boxes(k).collect::<Vec<_>>().into_iter().rev() {
+            plan.write_lattice_unit(k, lo, Some(&d)).unwrap();
+        }
+    }
+    // A unit that is not one, and a prefilter the plan does not name, are refused.
+    assert!(plan.write_lattice_unit(0, [1, 0, 0], Some(&d)).is_err());
+    assert!(plan.write_lattice_unit(0, [0, 0, 0], None).is_err());
+    plan.finish().unwrap();
+    plan.remove_cartesian_pass().unwrap();
+    assert_eq!(crate::common::store_files(&store), crate::common::store_files(&whole));
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// The Python of the peer venv (made once by scripts/zarr-peers/ensure-venv.sh).

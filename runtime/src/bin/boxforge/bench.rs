@@ -534,6 +534,17 @@ fn main_report(a: BenchArgs) -> Result<(), Failure> {
                 bench::levels::existing_section(&old),
                 bench::four::existing_section(&old),
                 bench::markdown::gpu_record_section(&old),
+                // The Python package's benches (python/bench/), pasted in by hand.
+                bench::derive::section_between(
+                    &old,
+                    "<!-- python-spline-bench:start -->",
+                    "<!-- python-spline-bench:end -->",
+                ),
+                bench::derive::section_between(
+                    &old,
+                    "<!-- python-dask-bench:start -->",
+                    "<!-- python-dask-bench:end -->",
+                ),
             ];
             for section in kept.into_iter().flatten() {
                 text = format!("{}\n\n{section}\n", text.trim_end());

@@ -15,10 +15,14 @@
 //! generic OME-Zarr reader sees a valid image with one channel per coset
 //! (each a coarser view of the whole volume) and boxforge sees the lattice.
 
+use super::write::space_axis;
 use super::ZarrError;
+use super::{PyramidOptions, Reduction};
 use crate::volume::convert::Membership;
 use boxforge::spec::lattice::Lattice;
 use std::path::Path;
+use std::sync::Arc;
+use zarrs::filesystem::FilesystemStore;
 
 /// Version of the `boxforge` attribute's layout.
 const LAYOUT_VERSION: u64 = 1;
@@ -130,6 +134,57 @@ impl LatticeLayout {
         let prefilter = v.get("prefilter").and_then(|x| x.as_str()).map(str::to_string);
         Ok(Some(LatticeLayout { lattice, period, cosets, dims, prefilter }))
     }
+}
+
+/// The group's `zarr.json`: OME-Zarr 0.5 multiscales over (c, z, y, x)
+/// (or (z, y, x) for one coset) with each level's coset-grid scale and the
+/// position of lattice point 0, and the `boxforge` layout attribute.
+pub(super) fn write_lattice_group(
+    store: &Arc<FilesystemStore>,
+    layout: &LatticeLayout,
+    matched: &[([usize; 3], f64)],
+    channels: Option<usize>,
+    o: &PyramidOptions,
+) -> Result<(), Box<dyn std::error::Error>> {
+    let s0 = [o.spacing[2], o.spacing[1], o.spacing[0]];
+    let p = [layout.period[2], layout.period[1], layout.period[0]];
+    let lead: Vec<f64> = channels.map(|_| 1.0).into_iter().collect();
+    let datasets: Vec<serde_json::Value> = matched
+        .iter()
+        .enumerate()
+        .map(|(k, &(_, lattice_scale))| {
+            let f = (1u64 << k) as f64;
+            let scale: Vec<f64> = (0..3).map(|a| p[a] as f64 * lattice_scale * f * s0[a]).collect();
+            let scale = [lead.clone(), scale].concat();
+            let mut transforms = vec![serde_json::json!({"type": "scale", "scale": scale})];
+            if o.reduction == Reduction::Box && k > 0 {
+                let shift: Vec<f64> = s0.iter().map(|s| s * (f - 1.0) / 2.0).collect();
+                let shift = [lead.iter().map(|_| 0.0).collect(), shift].concat();
+                transforms.push(serde_json::json!({"type": "translation", "translation": shift}));
+            }
+            serde_json::json!({"path": k.to_string(), "coordinateTransformations": transforms})
+        })
+        .collect();
+    let space = |name: &str| space_axis(name, o);
+    let mut axes: Vec<serde_json::Value> =
+        channels.map(|_| serde_json::json!({"name": "c", "type": "channel"})).into_iter().collect();
+    axes.extend([space("z"), space("y"), space("x")]);
+    let ome = serde_json::json!({
+        "version": "0.5",
+        "multiscales": [{
+            "name": format!("boxforge {} samples", layout.lattice),
+            "axes": axes,
+            "datasets": datasets,
+            "type": o.reduction.name(),
+            "metadata": {"method": "boxforge lattice store", "reduction": o.reduction.name()},
+        }],
+    });
+    let scales: Vec<f64> = matched.iter().map(|m| m.1).collect();
+    let mut group = zarrs::group::GroupBuilder::new().build(store.clone(), "/")?;
+    group.attributes_mut().insert("ome".into(), ome);
+    group.attributes_mut().insert("boxforge".into(), layout.to_json(&scales));
+    group.store_metadata()?;
+    Ok(())
 }
 
 #[cfg(test)]

@@ -1,7 +1,8 @@
 //! OME-Zarr images (0.4 on Zarr v2, 0.5 on Zarr v3; sharded or not; gzip,
 //! zstd or blosc; u8, u16, i16 or f32 samples) read with the `zarrs` crates
-//! as volumes, and written as pyramids (`write.rs`), of Cartesian samples or
-//! of lattice samples stored as their cosets (`cosets.rs`, `write_lattice.rs`).
+//! as volumes, and written as pyramids (`pyramid.rs` over a store's plan,
+//! `plan.rs`, and the writer's pieces, `write.rs`), of Cartesian samples or
+//! of lattice samples stored as their cosets (`cosets.rs`).
 //!
 //! Reading is split by concern: `meta.rs` parses the `multiscales`
 //! metadata into plain data, `store.rs` opens the store and each level's
@@ -17,10 +18,10 @@ mod error;
 mod http;
 mod meta;
 mod plan;
+mod pyramid;
 mod source;
 mod store;
 mod write;
-mod write_lattice;
 
 pub use cosets::LatticeLayout;
 pub use error::ZarrError;
@@ -28,10 +29,10 @@ pub use error::ZarrError;
 pub use http::{HttpOptions, HttpStore};
 pub use meta::{AxisKind, LevelMeta, Multiscale};
 pub use plan::{pyramid_dims, StorePlan};
+pub use pyramid::{write_lattice_pyramid, write_pyramid, LatticeOptions};
 pub use source::{ZarrVolume, DEFAULT_CHUNK_CACHE};
 pub use store::{is_store, OmeZarr, Selection, ZarrLevel};
-pub use write::{write_pyramid, PyramidOptions, PyramidReport, Reduction};
-pub use write_lattice::{write_lattice_pyramid, LatticeOptions};
+pub use write::{PyramidOptions, PyramidReport, Reduction};
 
 /// Sample types boxforge reads from and writes to Zarr arrays.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

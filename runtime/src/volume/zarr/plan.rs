@@ -13,15 +13,20 @@
 //! that looks complete is complete.
 
 use super::cosets::LatticeLayout;
-use super::write::{create_array, store_values, write_group};
-use super::{PyramidOptions, PyramidReport, Reduction, ZarrError, ZarrType};
-use crate::volume::{matched_lattice, BrickSource, VolumeError, Window};
+use super::write::{create_array, open_level, store_values, write_group, Reduced, StoredLevel};
+use super::{OmeZarr, PyramidOptions, PyramidReport, Reduction, Selection, ZarrError, ZarrType, ZarrVolume};
+use crate::volume::{matched_lattice, BrickSource, Prefiltered, Resampled, VolumeError, Window};
+use boxforge::derive::Derivation;
 use boxforge::spec::lattice::Lattice;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use zarrs::array::codec::array_to_bytes::sharding::{ShardingCodecOptions, SubchunkWriteOrder};
 use zarrs::array::{Array, ArraySubset, CodecSpecificOptions};
 use zarrs::filesystem::FilesystemStore;
+
+/// The folder inside a lattice store that holds the float32 Cartesian
+/// pyramid while the lattice levels are made from it.
+const CARTESIAN_PASS: &str = ".boxforge-cartesian";
 
 /// The levels, array shapes and metadata of a store, before and while it is written.
 #[derive(Clone, Debug)]
@@ -242,20 +247,118 @@ impl StorePlan {
         self.write_unit(k, &window, lo)
     }
 
+    /// Where the store is written.
+    pub fn path(&self) -> &Path {
+        &self.out
+    }
+
+    /// A lattice store's Cartesian pass: the float32 pyramid (same chunks,
+    /// levels and reduction) in a hidden folder of the output, which each
+    /// lattice level is resampled from and which [`StorePlan::remove_cartesian_pass`]
+    /// removes at the end. None for a Cartesian store (its levels are reduced
+    /// from its own stored levels).
+    pub fn cartesian_pass(&self) -> Option<StorePlan> {
+        self.lattice.as_ref().map(|_| StorePlan {
+            out: self.out.join(CARTESIAN_PASS),
+            options: PyramidOptions { ty: ZarrType::F32, ..self.options.clone() },
+            cartesian: self.cartesian.clone(),
+            lattice: None,
+        })
+    }
+
+    /// Removes the Cartesian pass (a lattice store is complete without it).
+    pub fn remove_cartesian_pass(&self) -> Result<(), VolumeError> {
+        match self.cartesian_pass() {
+            Some(pass) if pass.out.exists() => std::fs::remove_dir_all(&pass.out).map_err(|e| self.write_error(&e)),
+            _ => Ok(()),
+        }
+    }
+
+    /// Writes the unit at `lo` of Cartesian level `k` >= 1, reduced from
+    /// level k - 1 as this store holds it (its footprint read back, integer
+    /// samples as rounded): what [`write_pyramid`](super::write_pyramid) does unit by unit.
+    pub fn write_reduced_unit(&self, k: usize, lo: [usize; 3]) -> Result<(), VolumeError> {
+        if self.lattice.is_some() || k == 0 || k >= self.cartesian.len() {
+            return Err(VolumeError::BadDims {
+                dims: lo,
+                reason: format!("level {k} of this store is not reduced from a level before it"),
+            });
+        }
+        let fine = StoredLevel {
+            out: &self.out,
+            array: open_level(&self.out, k - 1)?,
+            dims: self.cartesian[k - 1],
+            o: &self.options,
+        };
+        self.write_unit(k, &Reduced { fine: &fine, dims: self.cartesian[k], reduction: self.options.reduction }, lo)
+    }
+
+    /// Calls `f` with lattice level `k`'s samples, made box by box from
+    /// Cartesian level k of `image` (the finished Cartesian pass):
+    /// resampled on the lattice and, with `prefilter`, prefiltered.
+    pub fn with_lattice_samples(
+        &self,
+        image: &OmeZarr,
+        k: usize,
+        prefilter: Option<&Derivation>,
+        f: &mut dyn FnMut(&dyn BrickSource) -> Result<(), VolumeError>,
+    ) -> Result<(), VolumeError> {
+        let Some(l) = &self.lattice else {
+            return Err(VolumeError::BadDims {
+                dims: [0; 3],
+                reason: "a Cartesian store has no lattice levels".into(),
+            });
+        };
+        if prefilter.map(|d| &d.filter.name) != l.layout.prefilter.as_ref() {
+            return Err(VolumeError::BadDims {
+                dims: [0; 3],
+                reason: format!(
+                    "the store is planned with prefilter {:?}, not {:?}",
+                    l.layout.prefilter,
+                    prefilter.map(|d| &d.filter.name)
+                ),
+            });
+        }
+        let cc = Lattice::builtin("cc").map_err(|e| self.write_error(&e))?;
+        let level = ZarrVolume::new(image, Selection { level: k, ..Selection::default() }, &cc)?;
+        let resampled;
+        let on_lattice: &dyn BrickSource = if l.lattice.det() == 1 {
+            &level
+        } else {
+            resampled = Resampled::new(&level, &l.lattice)?;
+            &resampled
+        };
+        match prefilter {
+            Some(d) => f(&Prefiltered::new(on_lattice, d)?),
+            None => f(on_lattice),
+        }
+    }
+
+    /// Writes the unit at `lo` of lattice level `k` from the finished
+    /// Cartesian pass: one writer's share of
+    /// [`write_lattice_pyramid`](super::write_lattice_pyramid).
+    pub fn write_lattice_unit(
+        &self,
+        k: usize,
+        lo: [usize; 3],
+        prefilter: Option<&Derivation>,
+    ) -> Result<(), VolumeError> {
+        let pass = self.cartesian_pass().ok_or_else(|| VolumeError::BadDims {
+            dims: lo,
+            reason: "a Cartesian store has no lattice levels".into(),
+        })?;
+        let image = OmeZarr::open(&pass.out)?;
+        self.with_lattice_samples(&image, k, prefilter, &mut |samples| self.write_unit(k, samples, lo))
+    }
+
     /// Writes the group's metadata (OME-Zarr 0.5 multiscales, and for a
     /// lattice store the `boxforge` layout attribute): the store is complete.
     pub fn finish(&self) -> Result<PyramidReport, VolumeError> {
         let store = self.store()?;
         match &self.lattice {
             Some(l) => {
-                super::write_lattice::write_lattice_group(
-                    &store,
-                    &l.layout,
-                    &l.matched,
-                    self.channels(),
-                    &self.options,
-                )
-                .map_err(|e| self.write_error(&e))?;
+                super::cosets::write_lattice_group(&store, &l.layout, &l.matched, self.channels(), &self.options)
+                    .map_err(|e| self.write_error(&e))?;
             }
             None => write_group(&store, &self.cartesian, &self.options).map_err(|e| self.write_error(&e))?,
         }

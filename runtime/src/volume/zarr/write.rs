@@ -1,9 +1,11 @@
-//! Writes a volume as an OME-Zarr 0.5 pyramid (Zarr v3, zstd, optionally
-//! sharded), streaming: level 0 is copied from the source one write unit
-//! (a chunk, or a shard when sharded) at a time, and each coarser level is
-//! reduced from the level just written, one unit at a time, reading back
-//! only the unit's footprint (its box at twice the size plus the filter's
-//! reach). Host memory stays at a few write units, whatever the volume.
+//! The pieces an OME-Zarr 0.5 pyramid (Zarr v3, zstd, optionally sharded)
+//! is written with: its options, its arrays, a unit's values stored as the
+//! sample type, the group metadata, and the reduction between levels. Each
+//! coarser level is reduced from the level just written, one write unit (a
+//! chunk, or a shard when sharded) at a time, reading back only the unit's
+//! footprint (its box at twice the size plus the filter's reach), so host
+//! memory stays at a few write units, whatever the volume (`pyramid.rs`,
+//! `plan.rs`).
 //!
 //! **The reduction, chosen by measurement.** [`Reduction::Box`] (the
 //! default) is the 2x2x2 mean, cell-centred: level k+1 has `floor(n / 2)`
@@ -24,7 +26,6 @@
 //! needs so its coarse levels do not alias, the box loses least at every
 //! level. Integer samples are rounded to the nearest value the type holds.
 
-use super::plan::StorePlan;
 use super::{ZarrError, ZarrType};
 use crate::volume::{BrickSource, VolumeError};
 use std::path::Path;
@@ -67,7 +68,7 @@ impl Reduction {
     }
 }
 
-/// How [`write_pyramid`] lays the store out.
+/// How [`write_pyramid`](super::write_pyramid) lays the store out.
 #[derive(Clone, Debug)]
 pub struct PyramidOptions {
     /// Chunk edge in samples (default 64).
@@ -104,46 +105,14 @@ impl Default for PyramidOptions {
     }
 }
 
-/// What [`write_pyramid`] wrote.
+/// What [`write_pyramid`](super::write_pyramid) wrote.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PyramidReport {
     /// Each level's samples along (x, y, z), finest first.
     pub levels: Vec<[usize; 3]>,
 }
 
-/// Writes the Cartesian volume `source` (its lattice must be `cc`) as an
-/// OME-Zarr 0.5 image at `out`, a path that does not exist or is an empty
-/// folder. `progress(done, total)` is called after each write unit.
-pub fn write_pyramid(
-    source: &dyn BrickSource,
-    out: &Path,
-    o: &PyramidOptions,
-    progress: &dyn Fn(u64, u64),
-) -> Result<PyramidReport, VolumeError> {
-    let plan = StorePlan::new(out, source.dims(), o, None)?;
-    plan.make_folder()?;
-    plan.create()?;
-    let dims = plan.cartesian_levels().to_vec();
-    let total: u64 = (0..dims.len()).map(|k| plan.unit_boxes(k).count() as u64).sum();
-    let mut done = 0u64;
-    for k in 0..dims.len() {
-        let reduced;
-        let samples: &dyn BrickSource = if k == 0 {
-            source
-        } else {
-            reduced = StoredLevel { out, array: open_level(out, k - 1)?, dims: dims[k - 1], o };
-            &Reduced { fine: &reduced, dims: dims[k], reduction: o.reduction }
-        };
-        for lo in plan.unit_boxes(k) {
-            plan.write_unit(k, samples, lo)?;
-            done += 1;
-            progress(done, total);
-        }
-    }
-    plan.finish()
-}
-
-fn open_level(out: &Path, k: usize) -> Result<Array<FilesystemStore>, VolumeError> {
+pub(super) fn open_level(out: &Path, k: usize) -> Result<Array<FilesystemStore>, VolumeError> {
     let werr = |e: &dyn std::fmt::Display| {
         VolumeError::from(ZarrError::Write { path: out.to_path_buf(), reason: e.to_string() })
     };
@@ -252,11 +221,11 @@ pub(super) fn store_values(
 }
 
 /// A level just written, read back box by box as float32.
-struct StoredLevel<'a> {
-    out: &'a Path,
-    array: Array<FilesystemStore>,
-    dims: [usize; 3],
-    o: &'a PyramidOptions,
+pub(super) struct StoredLevel<'a> {
+    pub(super) out: &'a Path,
+    pub(super) array: Array<FilesystemStore>,
+    pub(super) dims: [usize; 3],
+    pub(super) o: &'a PyramidOptions,
 }
 
 impl StoredLevel<'_> {
@@ -290,10 +259,10 @@ impl StoredLevel<'_> {
 }
 
 /// The next level of a stored level, box by box: each box reads its footprint.
-struct Reduced<'a> {
-    fine: &'a StoredLevel<'a>,
-    dims: [usize; 3],
-    reduction: Reduction,
+pub(super) struct Reduced<'a> {
+    pub(super) fine: &'a StoredLevel<'a>,
+    pub(super) dims: [usize; 3],
+    pub(super) reduction: Reduction,
 }
 
 impl Reduced<'_> {
