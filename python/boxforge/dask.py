@@ -10,6 +10,8 @@ bit for bit, seams included.
 - :func:`resample` changes the grid: each output chunk is one task that
   reads its own Cartesian footprint (its box times the scale, plus the
   trilinear stencil) from the input.
+- :func:`bounds` keeps the brick grid: ``map_overlap`` over chunks of
+  whole bricks with a halo of whole bricks covering the filter's support.
 - :func:`reduce` makes the next pyramid level the same way (its box
   doubled plus the reduction's taps).
 - :func:`to_ome_zarr` writes the store ``boxforge convert`` writes, the
@@ -25,6 +27,7 @@ Arrays are ``(z, y, x)``, float32 in and out.
 from __future__ import annotations
 
 import functools
+import json
 import math
 import os
 from typing import Any, List, Optional, Tuple
@@ -35,7 +38,7 @@ import numpy as np
 
 from . import _boxforge, _spec_text
 
-__all__ = ["prefilter", "reduce", "resample", "store_stages", "to_ome_zarr"]
+__all__ = ["bounds", "prefilter", "reduce", "resample", "store_stages", "to_ome_zarr"]
 
 
 def _starts(chunks: Tuple[int, ...]) -> list:
@@ -123,6 +126,42 @@ def resample(volume: da.Array, lattice: str, chunks: Optional[Any] = None) -> da
             plane.append(row)
         blocks.append(plane)
     return da.block(blocks)
+
+
+def _bounds_block(block: np.ndarray, spec: str, brick: int, halo, block_info=None) -> np.ndarray:
+    loc, n = block_info[0]["chunk-location"], block_info[0]["num-chunks"]
+    b = _boxforge.bounds(np.ascontiguousarray(block, dtype=np.float32), spec, brick, None)
+    # The halo's bricks (none before the first chunk or past the last) are
+    # another chunk's: keep this chunk's own.
+    cut = tuple(slice(halo[a] // brick if loc[a] > 0 else 0,
+                      b.shape[a] - (halo[a] // brick if loc[a] < n[a] - 1 else 0)) for a in range(3))
+    return b[cut]
+
+
+def bounds(samples: da.Array, spec: Any, brick: int = 32) -> da.Array:
+    """:func:`boxforge.bounds` lazily, chunk by chunk: chunks rounded to
+    whole bricks, each with a halo of whole bricks covering the filter's
+    reach (its support), so every brick's bounds equal the whole volume's.
+    Returns a (bz, by, bx, 2) float32 dask array, one chunk per input chunk."""
+    spec = _spec_text(spec)
+    x = _as_volume(samples, "bounds")
+    report = json.loads(_boxforge.report_json(spec))
+    if report["dimension"] != 3:
+        raise ValueError(f"{report['name']} is {report['dimension']}D: bounds are computed for 3D filters")
+    if brick < 1:
+        raise ValueError(f"brick {brick}: give a brick edge from 1 to 1024")
+    # A unit cube's stencil reaches the support's half-extent past it.
+    directions = report["directions"]
+    reach = [math.ceil(sum(abs(d[a]) for d in directions) / 2) + 1 for a in (2, 1, 0)]
+    depth = tuple(brick * math.ceil(r / brick) for r in reach)
+    chunks = tuple(brick * max(1, round(c / brick)) for c in x.chunksize)
+    x = x.rechunk(da.core.normalize_chunks(chunks, x.shape))
+    if any(d > min(c) for d, c in zip(depth, x.chunks)):
+        x = x.rechunk(tuple(_at_least(c, d) for c, d in zip(x.chunks, depth)))
+    out_chunks = tuple(tuple(math.ceil(c / brick) for c in cs) for cs in x.chunks) + ((2,),)
+    return x.map_overlap(_bounds_block, depth=dict(enumerate(depth)), boundary="none", trim=False,
+                         dtype=np.float32, chunks=out_chunks, new_axis=3, meta=np.empty((0, 0, 0, 0), np.float32),
+                         spec=spec, brick=brick, halo=depth)
 
 
 def _footprint_tasks(x: da.Array, out_shape, out_chunks, reach, task):

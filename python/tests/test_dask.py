@@ -37,6 +37,14 @@ def test_prefilter_and_resample_by_chunks_equal_the_whole(volume, chunks):
     assert np.array_equal(cc, boxforge.prefilter(volume, "cc_tricubic"))
 
 
+@pytest.mark.parametrize("spec, lattice", [("bcc7", "bcc"), ("cc_tricubic", None)])
+def test_bounds_by_odd_chunks_equal_the_whole_volumes(volume, spec, lattice):
+    samples = boxforge.resample(volume, lattice) if lattice else volume
+    lazy = bd.bounds(da.from_array(samples, chunks=(5, 11, 7)), spec, brick=4)
+    assert lazy.shape == boxforge.bounds(samples, spec, brick=4).shape
+    assert np.array_equal(lazy.compute(scheduler="threads"), boxforge.bounds(samples, spec, brick=4)), spec
+
+
 def test_a_chunk_thinner_than_the_halo_is_merged_not_wrong(volume):
     x = da.from_array(volume, chunks=((1,) * volume.shape[0], 11, 9))
     assert np.array_equal(bd.prefilter(x, "cc_tricubic").compute(scheduler="threads"),
