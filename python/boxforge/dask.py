@@ -92,9 +92,8 @@ def prefilter(samples: da.Array, spec: Any) -> da.Array:
     )
 
 
-def _resample_block(piece: np.ndarray, lattice: str, origin, shape, out_origin, out_shape) -> np.ndarray:
-    return _boxforge.resample(np.ascontiguousarray(piece, dtype=np.float32), lattice, origin, shape, out_origin,
-                              out_shape)
+def _resample_block(piece: np.ndarray, origin, lo, size, lattice: str, shape) -> np.ndarray:
+    return _boxforge.resample(np.ascontiguousarray(piece, dtype=np.float32), lattice, origin, shape, lo, size)
 
 
 def resample(volume: da.Array, lattice: str, chunks: Optional[Any] = None) -> da.Array:
@@ -106,26 +105,17 @@ def resample(volume: da.Array, lattice: str, chunks: Optional[Any] = None) -> da
     if chunks is None:
         chunks = tuple(max(1, round(c * o / n)) for c, o, n in zip(x.chunksize, out_shape, x.shape))
     out_chunks = da.core.normalize_chunks(chunks, out_shape, dtype=np.float32)
-    starts = [_starts(c) for c in out_chunks]
-    n = x.shape
-    blocks = []
-    for iz, cz in enumerate(out_chunks[0]):
-        plane = []
-        for iy, cy in enumerate(out_chunks[1]):
-            row = []
-            for ix, cx in enumerate(out_chunks[2]):
-                lo = (starts[0][iz], starts[1][iy], starts[2][ix])
-                size = (cz, cy, cx)
-                # Trilinear reads voxels floor(j s) and floor(j s) + 1; one
-                # voxel of margin each side covers rounding.
-                f0 = tuple(max(0, math.floor(lo[a] * scale) - 1) for a in range(3))
-                f1 = tuple(min(n[a], math.floor((lo[a] + size[a] - 1) * scale) + 3) for a in range(3))
-                piece = x[f0[0]:f1[0], f0[1]:f1[1], f0[2]:f1[2]]
-                task = dask.delayed(_resample_block, pure=True)(piece, lattice, f0, tuple(n), lo, size)
-                row.append(da.from_delayed(task, shape=size, dtype=np.float32))
-            plane.append(row)
-        blocks.append(plane)
-    return da.block(blocks)
+    n = tuple(x.shape)
+
+    def reach(lo, size):
+        # Trilinear reads voxels floor(j s) and floor(j s) + 1; one voxel
+        # of margin each side covers rounding.
+        f0 = tuple(max(0, math.floor(lo[a] * scale) - 1) for a in range(3))
+        f1 = tuple(min(n[a], math.floor((lo[a] + size[a] - 1) * scale) + 3) for a in range(3))
+        return f0, f1
+
+    return _footprint_tasks(x, out_shape, out_chunks, reach, functools.partial(_resample_block, lattice=lattice,
+                                                                                 shape=n))
 
 
 def _bounds_block(block: np.ndarray, spec: str, brick: int, halo, block_info=None) -> np.ndarray:

@@ -61,27 +61,9 @@ pub(crate) fn gpu(adapter: Option<&str>) -> PyResult<Arc<Gpu>> {
 /// A device budget in bytes from "64MiB", "2GiB", "512MB", "64KiB" or a
 /// plain byte count (what `render --gpu-budget` takes).
 fn parse_budget(text: &str) -> PyResult<u64> {
-    let t = text.trim();
-    let split = t.find(|c: char| !(c.is_ascii_digit() || c == '.')).unwrap_or(t.len());
-    let (num, unit) = t.split_at(split);
-    let scale: f64 = match unit.trim().to_ascii_lowercase().as_str() {
-        "" | "b" => 1.0,
-        "kib" | "k" => 1024.0,
-        "mib" | "m" => 1024.0 * 1024.0,
-        "gib" | "g" => 1024.0 * 1024.0 * 1024.0,
-        "kb" => 1e3,
-        "mb" => 1e6,
-        "gb" => 1e9,
-        _ => f64::NAN,
-    };
-    match num.parse::<f64>() {
-        Ok(n) if n > 0.0 && n.is_finite() && scale.is_finite() && n * scale < 1e15 && n * scale >= 1.0 => {
-            Ok((n * scale) as u64)
-        }
-        _ => Err(value_error(format!(
-            "gpu_budget {text:?}: give a size such as \"256MiB\", \"2GiB\" or 500000000 bytes"
-        ))),
-    }
+    boxforge_runtime::memory::parse_size(text).ok_or_else(|| {
+        value_error(format!("gpu_budget {text:?}: give a size such as \"256MiB\", \"2GiB\" or 500000000 bytes"))
+    })
 }
 
 /// `samples` (z, y, x) on the filter's lattice as `conversion` says

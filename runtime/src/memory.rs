@@ -123,9 +123,44 @@ pub fn human(bytes: u64) -> String {
     }
 }
 
+/// Bytes from a size such as "2GiB", "256MiB", "512MB", "64KiB" or a
+/// plain byte count (the inverse of [`human`]; what `--gpu-budget` and the
+/// Python package's `gpu_budget` take). None: not a size of at least one byte.
+pub fn parse_size(text: &str) -> Option<u64> {
+    let t = text.trim();
+    let split = t.find(|c: char| !(c.is_ascii_digit() || c == '.')).unwrap_or(t.len());
+    let (num, unit) = t.split_at(split);
+    let scale: f64 = match unit.trim().to_ascii_lowercase().as_str() {
+        "" | "b" => 1.0,
+        "kib" | "k" => 1024.0,
+        "mib" | "m" => 1024.0 * 1024.0,
+        "gib" | "g" => 1024.0 * 1024.0 * 1024.0,
+        "kb" => 1e3,
+        "mb" => 1e6,
+        "gb" => 1e9,
+        _ => return None,
+    };
+    match num.parse::<f64>() {
+        Ok(n) if n.is_finite() && n * scale >= 1.0 && n * scale < 1e15 => Some((n * scale) as u64),
+        _ => None,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn sizes_parse_in_binary_and_decimal_units_and_nonsense_does_not() {
+        assert_eq!(parse_size("256MiB"), Some(256 << 20));
+        assert_eq!(parse_size(" 1.5 KiB"), Some(1536));
+        assert_eq!(parse_size("1GB"), Some(1_000_000_000));
+        assert_eq!(parse_size("500000"), Some(500_000));
+        assert_eq!(parse_size(&human(64 << 20).replace(' ', "")), Some(64 << 20));
+        for bad in ["", "MiB", "12 parsecs", "-5", "0", "0.1", "1e30", "nan"] {
+            assert_eq!(parse_size(bad), None, "{bad:?}");
+        }
+    }
 
     #[test]
     fn memory_status_lines_parse() {

@@ -383,23 +383,8 @@ pub fn check_brick(brick: Option<usize>, layout: Layout) -> Result<(), String> {
 /// `--gpu-budget SIZE`: bytes from "2GiB", "256MiB", "512MB", "64KiB" or a
 /// plain byte count.
 pub fn parse_budget(text: &str) -> Result<u64, String> {
-    let t = text.trim();
-    let split = t.find(|c: char| !(c.is_ascii_digit() || c == '.')).unwrap_or(t.len());
-    let (num, unit) = t.split_at(split);
-    let scale: f64 = match unit.trim().to_ascii_lowercase().as_str() {
-        "" | "b" => 1.0,
-        "kib" | "k" => 1024.0,
-        "mib" | "m" => 1024.0 * 1024.0,
-        "gib" | "g" => 1024.0 * 1024.0 * 1024.0,
-        "kb" => 1e3,
-        "mb" => 1e6,
-        "gb" => 1e9,
-        _ => f64::NAN,
-    };
-    match num.parse::<f64>() {
-        Ok(n) if n > 0.0 && n.is_finite() && scale.is_finite() && n * scale < 1e15 => Ok((n * scale) as u64),
-        _ => Err(format!("--gpu-budget {text}: give a size such as 256MiB, 2GiB or 500000000")),
-    }
+    boxforge_runtime::memory::parse_size(text)
+        .ok_or_else(|| format!("--gpu-budget {text}: give a size such as 256MiB, 2GiB or 500000000"))
 }
 
 /// The renderers `--gpu-budget` works with: the ray caster's isosurfaces
